@@ -1,0 +1,17 @@
+"""Gravity ``m g`` on every active node (paper Eq. 2, term G)."""
+
+import warp as wp
+
+
+@wp.kernel
+def gravity_forces(
+    node_mass: wp.array(dtype=wp.float32),
+    node_flags: wp.array(dtype=wp.int32),
+    gravity: wp.vec3,
+    forces: wp.array(dtype=wp.vec3),
+):
+    """One thread per node. node_mass [kg] (node_count,); gravity [m/s^2]; forces [N]."""
+    i = wp.tid()
+    if (node_flags[i] & 1) == 0:
+        return
+    forces[i] = forces[i] + gravity * node_mass[i]

@@ -1,0 +1,39 @@
+"""Residual-stress links (paper Eq. 3-4, SPEC section 1).
+
+When a cut deletes a spring whose two end nodes survive, the pair stays joined by a
+link pulling them together with magnitude ``sigma_r * A`` (sigma_r = E * eps_r [Pa],
+A [m^2]). To keep the force smooth and finite as the distance goes to zero, the
+direction is regularised with a smoothing length ``eps`` [m]:
+
+    f_i = F * d / sqrt(|d|^2 + eps^2),   d = x_j - x_i,   f_j = -f_i
+
+so the magnitude is F for |d| >> eps and falls smoothly to 0 at |d| = 0. Its largest
+stiffness is F / eps, which the stable-step estimate uses.
+"""
+
+import warp as wp
+
+
+@wp.kernel
+def residual_link_forces(
+    positions: wp.array(dtype=wp.vec3),
+    link_indices: wp.array(dtype=wp.int32),
+    link_force: wp.array(dtype=wp.float32),
+    link_smoothing: wp.array(dtype=wp.float32),
+    forces: wp.array(dtype=wp.vec3),
+):
+    """One thread per link; accumulates into ``forces`` (node_count,) [N].
+
+    link_indices: (2 * link_count,) int32, negative = deleted slot.
+    link_force: magnitude sigma_r * A [N]; link_smoothing: eps [m], (link_count,).
+    """
+    k = wp.tid()
+    i = link_indices[2 * k]
+    j = link_indices[2 * k + 1]
+    if i < 0 or j < 0:
+        return
+    d = positions[j] - positions[i]
+    eps = link_smoothing[k]
+    f = d * (link_force[k] / wp.sqrt(wp.dot(d, d) + eps * eps))
+    wp.atomic_add(forces, i, f)
+    wp.atomic_sub(forces, j, f)

@@ -1,0 +1,69 @@
+"""Control: what the user drives, the tool. A pose per step, as a 1 kHz haptic loop sends."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["Tool", "ToolPath"]
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise InputError(f"{name} must be three finite numbers [m], got {value!r}")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Tool:
+    """A cylindrical tool pose: axis from p0 (the tip) to p1 [m], radius [m] >= 0."""
+
+    p0: np.ndarray
+    p1: np.ndarray
+    radius: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "p0", _vec3(self.p0, "tool.p0"))
+        object.__setattr__(self, "p1", _vec3(self.p1, "tool.p1"))
+        r = float(self.radius)
+        if not np.isfinite(r) or r < 0:
+            raise InputError(f"tool.radius must be a finite length >= 0 m, got {self.radius}")
+        object.__setattr__(self, "radius", r)
+
+    @property
+    def length(self) -> float:
+        """|p1 - p0| [m]."""
+        return float(np.linalg.norm(self.p1 - self.p0))
+
+
+class ToolPath:
+    """Keyframed tool motion: times (k,) [s] increasing, tips p0 (k, 3) and ends p1 (k, 3) [m],
+    linear in between and held constant outside the keyframe range."""
+
+    def __init__(self, times, p0, p1, radius: float):
+        self.times = np.asarray(times, dtype=np.float64).ravel()
+        self.p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 3)
+        self.p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 3)
+        if len(self.times) == 0 or len(self.p0) != len(self.times) or len(self.p1) != len(self.times):
+            raise InputError("tool keyframes need matching t, p0 and p1 (at least one)")
+        if np.any(np.diff(self.times) <= 0):
+            raise InputError("tool keyframe times must be strictly increasing")
+        if not (np.all(np.isfinite(self.p0)) and np.all(np.isfinite(self.p1))
+                and np.all(np.isfinite(self.times))):
+            raise InputError("tool keyframes must be finite")
+        self.radius = Tool(self.p0[0], self.p1[0], radius).radius
+
+    def endpoints_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(p0, p1) [m] at time t [s]."""
+        p0 = np.array([np.interp(t, self.times, self.p0[:, c]) for c in range(3)])
+        p1 = np.array([np.interp(t, self.times, self.p1[:, c]) for c in range(3)])
+        return p0, p1
+
+    def pose_at(self, t: float) -> Tool:
+        """The Tool at time t [s]."""
+        p0, p1 = self.endpoints_at(t)
+        return Tool(p0, p1, self.radius)

@@ -1,0 +1,272 @@
+"""TissueModel: what does not change during a step (paper section 2.1).
+
+The model is the single topology store of a tissue: node rest positions, lumped masses,
+pinned flags, springs with rest lengths and stiffness, triangles, residual-stress links and
+the material. Device arrays, the stable step and everything else are derived from it.
+All arrays are numpy on the host (float64 / int64).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .material import Material
+
+__all__ = ["TissueModel", "triangle_edges", "lumped_masses", "boundary_nodes"]
+
+DEFAULT_LINK_SMOOTHING = 0.25
+"""Residual-link smoothing length as a fraction of the deleted spring's rest length."""
+
+
+def triangle_edges(triangles: np.ndarray) -> np.ndarray:
+    """Unique undirected edges (e, 2), each sorted (i < j), of triangles (t, 3)."""
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    return np.unique(edges, axis=0) if len(edges) else np.zeros((0, 2), np.int64)
+
+
+def lumped_masses(points: np.ndarray, triangles: np.ndarray, areal_density: float) -> np.ndarray:
+    """Lumped node masses (n,) [kg]: areal_density [kg/m^2] x one third of the adjacent areas."""
+    pts = np.asarray(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    a = pts[tri]
+    area = 0.5 * np.linalg.norm(np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]), axis=1)
+    masses = np.zeros(len(pts))
+    np.add.at(masses, tri.ravel(), np.repeat(area * areal_density / 3.0, 3))
+    return masses
+
+
+def boundary_nodes(node_count: int, triangles: np.ndarray) -> np.ndarray:
+    """Mask (n,) of nodes on a boundary edge (an edge used by exactly one triangle)."""
+    tri = np.asarray(triangles, dtype=np.int64)
+    edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    uniq, counts = np.unique(edges, axis=0, return_counts=True)
+    mask = np.zeros(node_count, dtype=bool)
+    mask[uniq[counts == 1].ravel()] = True
+    return mask
+
+
+def _per_item(value, count: int, name: str, lower_open: bool = False) -> np.ndarray:
+    """A scalar or (count,) array as a float64 (count,) array, checked finite and >= 0 (> 0)."""
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        arr = np.full(count, float(arr))
+    if arr.shape != (count,):
+        raise InputError(f"{name} must be a scalar or have shape ({count},), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{name} must be finite")
+    if np.any(arr <= 0) if lower_open else np.any(arr < 0):
+        bad = int(np.argmin(arr))
+        raise InputError(
+            f"{name}[{bad}] = {arr[bad]} must be {'> 0' if lower_open else '>= 0'}"
+        )
+    return arr
+
+
+class TissueModel:
+    """A mass-spring tissue: nodes, springs, triangles, residual links, material.
+
+    Attributes (numpy, host):
+        points: rest positions [m], (node_count, 3) float64.
+        masses: lumped node masses [kg], (node_count,) float64, > 0.
+        pinned: boundary-condition flags, (node_count,) bool; pinned nodes never move.
+        damping: per-node damping D [N s/m], (node_count,) float64.
+        springs: node pairs (spring_count, 2) int64, i < j, unique.
+        rest_lengths: L0 [m], (spring_count,) float64.
+        stiffness: K [N/m], (spring_count,) float64.
+        triangles: surface triangles (triangle_count, 3) int64, CCW seen from the outside.
+        links: residual-stress link pairs (link_count, 2) int64.
+        link_force: sigma_r * A [N], (link_count,) float64.
+        link_smoothing: regularisation length [m], (link_count,) float64.
+        material: the Material the model was built with.
+    """
+
+    def __init__(self, points, masses, springs, rest_lengths, stiffness, damping,
+                 pinned, triangles, material: Material):
+        self.points = points
+        self.masses = masses
+        self.springs = springs
+        self.rest_lengths = rest_lengths
+        self.stiffness = stiffness
+        self.damping = damping
+        self.pinned = pinned
+        self.triangles = triangles
+        self.material = material
+        self.links = np.zeros((0, 2), dtype=np.int64)
+        self.link_force = np.zeros(0)
+        self.link_smoothing = np.zeros(0)
+
+    # ----------------------------------------------------------------- constructors
+    @classmethod
+    def from_arrays(cls, points, springs, masses, pinned=None, triangles=None, *,
+                    stiffness=None, damping=None, rest_lengths=None,
+                    material: Material | None = None) -> "TissueModel":
+        """Build a model from raw arrays.
+
+        points (n, 3) [m]; springs (s, 2) node indices; masses scalar or (n,) [kg] > 0;
+        pinned None or (n,) bool or an index list; triangles None or (t, 3);
+        stiffness scalar or (s,) [N/m] (default material.stiffness);
+        damping scalar or (n,) [N s/m] (default material.damping);
+        rest_lengths None (the initial lengths) or (s,) [m].
+        """
+        material = material or Material()
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
+            raise InputError(f"points must have shape (n, 3) with n >= 1, got {pts.shape}")
+        if not np.all(np.isfinite(pts)):
+            raise InputError("points must be finite")
+        n = len(pts)
+        spr = np.asarray(springs, dtype=np.int64).reshape(-1, 2) if len(springs) else np.zeros((0, 2), np.int64)
+        if len(spr):
+            if spr.min() < 0 or spr.max() >= n:
+                raise InputError(f"springs index a node outside 0..{n - 1}")
+            if np.any(spr[:, 0] == spr[:, 1]):
+                raise InputError(f"spring {int(np.flatnonzero(spr[:, 0] == spr[:, 1])[0])} joins a node to itself")
+            spr = np.sort(spr, axis=1)
+            uniq, first = np.unique(spr, axis=0, return_index=True)
+            if len(uniq) != len(spr):
+                dup = sorted(set(range(len(spr))) - set(first.tolist()))[0]
+                raise InputError(f"spring {dup} {tuple(spr[dup])} is a duplicate")
+        s = len(spr)
+        m = _per_item(masses, n, "masses", lower_open=True)
+        k = _per_item(material.stiffness if stiffness is None else stiffness, s, "stiffness")
+        d = _per_item(material.damping if damping is None else damping, n, "damping")
+        if rest_lengths is None:
+            L0 = np.linalg.norm(pts[spr[:, 1]] - pts[spr[:, 0]], axis=1) if s else np.zeros(0)
+        else:
+            L0 = _per_item(rest_lengths, s, "rest_lengths")
+        pin = np.zeros(n, dtype=bool)
+        if pinned is not None:
+            p = np.asarray(pinned)
+            if p.dtype == bool:
+                if p.shape != (n,):
+                    raise InputError(f"pinned mask must have shape ({n},), got {p.shape}")
+                pin = p.copy()
+            elif p.size:
+                p = p.astype(np.int64).ravel()
+                if p.min() < 0 or p.max() >= n:
+                    raise InputError(f"pinned indices must be in 0..{n - 1}")
+                pin[p] = True
+        if triangles is None:
+            tri = np.zeros((0, 3), dtype=np.int64)
+        else:
+            tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+            if len(tri) and (tri.min() < 0 or tri.max() >= n):
+                raise InputError(f"triangles index a node outside 0..{n - 1}")
+        return cls(pts.copy(), m, spr, L0, k, d, pin, tri, material)
+
+    @classmethod
+    def from_triangles(cls, points, triangles, *, material: Material | None = None,
+                       pinned=None, uniform_mass: float | None = None) -> "TissueModel":
+        """A surface mesh as a tissue: springs = unique edges, lumped masses from
+        density x thickness x one third of the adjacent triangle areas (or a uniform mass [kg])."""
+        material = material or Material()
+        pts = np.asarray(points, dtype=np.float64)
+        tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+        if len(tri) == 0:
+            raise InputError("a tissue mesh needs at least one triangle")
+        if uniform_mass is not None:
+            masses = float(uniform_mass)
+        else:
+            masses = lumped_masses(pts, tri, material.density * material.thickness)
+            used = np.zeros(len(pts), dtype=bool)
+            used[tri.ravel()] = True
+            if not used.all():
+                raise InputError(
+                    f"{int((~used).sum())} mesh vertices belong to no triangle (first: "
+                    f"{int(np.flatnonzero(~used)[0])}); remove them or give a uniform mass"
+                )
+        if isinstance(pinned, str):
+            pinned = cls._pinned_by_rule(pts, tri, pinned)
+        return cls.from_arrays(pts, triangle_edges(tri), masses, pinned=pinned,
+                               triangles=tri, material=material)
+
+    @classmethod
+    def from_patch(cls, size=(0.10, 0.06), spacing: float = 2.0e-3, *,
+                   material: Material | None = None, pinned="border") -> "TissueModel":
+        """A rectangular skin patch in the XY plane, centred on the origin (see skin_patch_mesh)."""
+        from .patch import skin_patch_mesh
+
+        pts, tri = skin_patch_mesh(size, spacing)
+        return cls.from_triangles(pts, tri, material=material, pinned=pinned)
+
+    @classmethod
+    def from_mesh_file(cls, path, *, material: Material | None = None, pinned="border",
+                       scale: float = 1.0) -> "TissueModel":
+        """A triangle mesh file (OBJ/STL/PLY, metres unless scaled) through trimesh,
+        with duplicate vertices merged."""
+        import trimesh
+
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(f"{path}: mesh file not found")
+        try:
+            mesh = trimesh.load(path, force="mesh", process=True)
+        except Exception as exc:  # trimesh raises many types for unreadable files
+            raise InputError(f"{path}: cannot read mesh ({exc})") from exc
+        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+            raise InputError(f"{path}: no triangles found")
+        mesh.merge_vertices()
+        mesh.remove_unreferenced_vertices()
+        return cls.from_triangles(np.asarray(mesh.vertices) * scale, np.asarray(mesh.faces),
+                                  material=material, pinned=pinned)
+
+    @staticmethod
+    def _pinned_by_rule(points, triangles, rule):
+        if rule == "none":
+            return None
+        if rule == "border":
+            return boundary_nodes(len(points), triangles)
+        raise InputError(f"pinned must be 'border', 'none', a box or indices, got {rule!r}")
+
+    # ----------------------------------------------------------------- sizes
+    @property
+    def node_count(self) -> int:
+        return len(self.points)
+
+    @property
+    def spring_count(self) -> int:
+        return len(self.springs)
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.triangles)
+
+    @property
+    def link_count(self) -> int:
+        return len(self.links)
+
+    @property
+    def total_mass(self) -> float:
+        """Sum of node masses [kg]."""
+        return float(self.masses.sum())
+
+    def pin_box(self, lower, upper) -> None:
+        """Pin every node whose rest position lies inside the axis-aligned box [lower, upper] [m]."""
+        lo = np.asarray(lower, dtype=np.float64)
+        hi = np.asarray(upper, dtype=np.float64)
+        self.pinned |= np.all((self.points >= lo) & (self.points <= hi), axis=1)
+
+    # ----------------------------------------------------------------- residual stress
+    def add_residual_links(self, pairs, rest_lengths, *, area=None,
+                           smoothing=None) -> None:
+        """Join node pairs (l, 2) by residual-stress links (SPEC section 1).
+
+        Force magnitude sigma_r * A with sigma_r = E eps_r (paper Eq. 3) and, by default,
+        A = thickness x rest length of the deleted spring [m^2]; ``area`` overrides A
+        (scalar or (l,)). ``smoothing`` [m] defaults to 0.25 x the rest length.
+        """
+        pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        L0 = _per_item(rest_lengths, len(pairs), "rest_lengths")
+        if len(pairs) and (pairs.min() < 0 or pairs.max() >= self.node_count):
+            raise InputError(f"link pairs index a node outside 0..{self.node_count - 1}")
+        A = self.material.thickness * L0 if area is None else _per_item(area, len(pairs), "area")
+        eps = DEFAULT_LINK_SMOOTHING * L0 if smoothing is None else _per_item(
+            smoothing, len(pairs), "smoothing", lower_open=True)
+        eps = np.maximum(eps, 1e-9)
+        self.links = np.concatenate([self.links, pairs])
+        self.link_force = np.concatenate([self.link_force, self.material.residual_stress * A])
+        self.link_smoothing = np.concatenate([self.link_smoothing, eps])

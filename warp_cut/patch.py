@@ -1,0 +1,78 @@
+"""Skin patch generator: a flat rectangular sheet in the XY plane (z = 0), triangulated.
+
+Rows of nodes are staggered by half a spacing (a triangular lattice), so interior triangles
+are nearly equilateral; the two side borders stay straight by adding a node at each end of
+the staggered rows, which makes the border triangles 30-60-90 at worst. Triangles are wound
+counter-clockwise seen from +Z (normal +Z).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["skin_patch_mesh"]
+
+
+def _zip_rows(lower, upper, lower_x, upper_x):
+    """Triangulate the strip between two rows of node indices sorted by x (both spanning
+    the same x range), always adding the shorter of the two candidate diagonals."""
+    tris = []
+    i = j = 0
+    while i < len(lower) - 1 or j < len(upper) - 1:
+        advance_lower = j == len(upper) - 1 or (
+            i < len(lower) - 1
+            and (lower_x[i + 1] - upper_x[j]) ** 2 <= (upper_x[j + 1] - lower_x[i]) ** 2
+        )
+        if advance_lower:
+            tris.append((lower[i], lower[i + 1], upper[j]))
+            i += 1
+        else:
+            tris.append((lower[i], upper[j + 1], upper[j]))
+            j += 1
+    return tris
+
+
+def skin_patch_mesh(size=(0.10, 0.06), spacing: float = 2.0e-3, origin=None):
+    """Points (n, 3) [m] and triangles (t, 3) of a size[0] x size[1] patch centred on the origin.
+
+    The spacing [m] is adjusted so that a whole number of nodes fits each side exactly
+    (along x: size[0] / round(size[0] / spacing); along y the row pitch is ~ spacing * sqrt(3)/2).
+    """
+    width, height = (float(v) for v in size)
+    spacing = float(spacing)
+    if not (np.isfinite(width) and np.isfinite(height) and width > 0 and height > 0):
+        raise InputError(f"tissue.size must be two positive lengths [m], got {size}")
+    if not (np.isfinite(spacing) and spacing > 0):
+        raise InputError(f"tissue.spacing must be > 0 m, got {spacing}")
+    nx = max(1, round(width / spacing))
+    ny = max(1, round(height / (spacing * math.sqrt(3.0) / 2.0)))
+    if (nx + 1) * (ny + 1) > 20_000_000:
+        raise InputError(
+            f"tissue.spacing {spacing} m gives {(nx + 1) * (ny + 1)} nodes; allowed up to 2e7"
+        )
+    dx = width / nx
+    dy = height / ny
+    even_x = np.arange(nx + 1) * dx
+    odd_x = np.concatenate([[0.0], (np.arange(nx) + 0.5) * dx, [width]])
+    points, rows, rows_x = [], [], []
+    start = 0
+    for r in range(ny + 1):
+        xs = even_x if r % 2 == 0 else odd_x
+        idx = np.arange(start, start + len(xs))
+        points.append(np.column_stack([xs, np.full(len(xs), r * dy), np.zeros(len(xs))]))
+        rows.append(idx)
+        rows_x.append(xs)
+        start += len(xs)
+    tris = []
+    for r in range(ny):
+        tris.extend(_zip_rows(rows[r], rows[r + 1], rows_x[r], rows_x[r + 1]))
+    pts = np.concatenate(points)
+    pts[:, 0] -= width / 2.0
+    pts[:, 1] -= height / 2.0
+    if origin is not None:
+        pts += np.asarray(origin, dtype=np.float64)
+    return pts, np.asarray(tris, dtype=np.int64)

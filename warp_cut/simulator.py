@@ -1,0 +1,226 @@
+"""Simulator: the user-facing loop binding a TissueModel, its State, a solver and the tool."""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Union
+
+import numpy as np
+import warp as wp
+
+from .collision import cylinder_contacts
+from .control import Tool, ToolPath
+from .device_model import DeviceModel
+from .errors import InputError, SimulationUnstable, ToolStartsInside
+from .model import TissueModel
+from .solver import INTEGRATORS
+from .state import State
+from .stability import StepLimit, stable_time_step
+
+__all__ = ["Simulator", "DEFAULT_GRAVITY"]
+
+DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
+"""Standard gravity [m/s^2], Z up."""
+
+ToolInput = Union[None, Tool, ToolPath, Callable[[float], Tool]]
+
+
+class Simulator:
+    """Advance a tissue in time.
+
+    Args:
+        model: the TissueModel (kept by reference: the single topology store).
+        dt: time of one ``step()`` [s] (default 1 ms, a haptic loop's period), or ``"auto"``
+            for ``safety`` x the stable step with one substep.
+        substeps: integration substeps per step, or ``"auto"``: the fewest that keep each
+            substep within ``safety`` x the stable step.
+        integrator: one of ``INTEGRATORS`` (``"semi_implicit"``).
+        gravity: (3,) [m/s^2] or None to leave gravity out (neither launched nor compiled).
+        residual_stress, collision: enable the residual links and the tool test.
+        safety: fraction of the computed stable step used by the automatic choices.
+        max_displacement: a node farther than this from its rest position [m] is a runaway
+            (default 1000 x the model's bounding-box diagonal, at least 1 m).
+        device: Warp device, ``"cpu"`` or ``"cuda:0"``.
+    """
+
+    def __init__(self, model: TissueModel, dt: float | str = 1.0e-3, *,
+                 integrator: str = "semi_implicit", gravity=DEFAULT_GRAVITY,
+                 device: str = "cpu", substeps: int | str = "auto",
+                 residual_stress: bool = True, collision: bool = True,
+                 safety: float = 0.5, max_displacement: float | None = None):
+        if integrator not in INTEGRATORS:
+            raise InputError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
+        if not (0 < safety <= 1):
+            raise InputError(f"safety must be in (0, 1], got {safety}")
+        wp.init()
+        self.model = model
+        self.device = device
+        self.integrator = integrator
+        self.safety = float(safety)
+        self.gravity = None if gravity is None else np.asarray(gravity, dtype=np.float64)
+        if self.gravity is not None and (self.gravity.shape != (3,) or not np.all(np.isfinite(self.gravity))):
+            raise InputError(f"gravity must be three finite numbers [m/s^2], got {gravity!r}")
+        self.residual_stress = residual_stress
+        self.collision = collision
+        extent = np.ptp(model.points, axis=0) if model.node_count else np.zeros(3)
+        self.max_displacement = float(max_displacement or max(1.0, 1000.0 * np.linalg.norm(extent)))
+        self._dt_request, self._substeps_request = dt, substeps
+        self._state = State(model.points, device=device)
+        self._next = State(model.points, device=device)
+        self._step_count = 0
+        self._time_offset = 0.0
+        self._tool_checked = False
+        self.tool_force = np.zeros(3)
+        """Reaction of the tissue on the tool over the last step [N], (3,)."""
+        self.contact_count = 0.0
+        """Mean number of nodes in contact per substep over the last step."""
+        self.first_contact_time: float | None = None
+        """Time [s] at the end of the first step with a contact, or None."""
+        self.first_contact_point: np.ndarray | None = None
+        """Mean position [m] of the nodes in contact during that step, or None."""
+        self._rebuild()
+
+    # --------------------------------------------------------------- set-up
+    def _rebuild(self) -> None:
+        """Derive device arrays, solver, stable step and substeps from the model."""
+        self.device_model = DeviceModel(self.model, self.device)
+        self.solver = INTEGRATORS[self.integrator](
+            self.device_model, gravity=self.gravity,
+            residual_stress=self.residual_stress, collision=self.collision)
+        self.step_limit: StepLimit = stable_time_step(self.model, self.positions)
+        self._choose_steps()
+
+    def _choose_steps(self) -> None:
+        limit = self.step_limit.step
+        dt, substeps = self._dt_request, self._substeps_request
+        if isinstance(dt, str):
+            if dt != "auto":
+                raise InputError(f"dt must be a positive number of seconds or 'auto', got {dt!r}")
+            if not math.isfinite(limit):
+                raise InputError("dt = 'auto' needs a model with springs (nothing limits the step)")
+            dt, substeps = self.safety * limit, 1
+        dt = float(dt)
+        if not (math.isfinite(dt) and dt > 0):
+            raise InputError(f"dt must be a positive number of seconds, got {dt}")
+        if isinstance(substeps, str):
+            if substeps != "auto":
+                raise InputError(f"substeps must be a positive integer or 'auto', got {substeps!r}")
+            substeps = 1 if not math.isfinite(limit) else max(1, math.ceil(dt / (self.safety * limit)))
+        substeps = int(substeps)
+        if substeps < 1:
+            raise InputError(f"substeps must be >= 1, got {substeps}")
+        if self._step_count:
+            # keep the clock exact across a change of dt (after a topology edit)
+            self._time_offset = self.time
+            self._step_count = 0
+        self.dt = dt
+        self.substeps = substeps
+
+    # --------------------------------------------------------------- properties
+    @property
+    def time(self) -> float:
+        """Simulated time [s]."""
+        return self._time_offset + self._step_count * self.dt
+
+    @property
+    def substep(self) -> float:
+        """Integration step h = dt / substeps [s]."""
+        return self.dt / self.substeps
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Node positions [m], (node_count, 3) float64 (a copy)."""
+        return self._state.positions.numpy().astype(np.float64)
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Node velocities [m/s], (node_count, 3) float64 (a copy)."""
+        return self._state.velocities.numpy().astype(np.float64)
+
+    @property
+    def state(self) -> State:
+        """The current device state (positions and velocities as Warp arrays)."""
+        return self._state
+
+    def kinetic_energy(self) -> float:
+        """Sum of 0.5 m |v|^2 over the nodes [J]."""
+        from .kernels.diagnostics import kinetic_energy
+
+        out = wp.zeros(1, dtype=wp.float32, device=self.device)
+        m = self.device_model
+        wp.launch(kinetic_energy, dim=m.node_count, device=self.device,
+                  inputs=[self._state.velocities, m.node_mass, m.node_flags, out])
+        return float(out.numpy()[0])
+
+    # --------------------------------------------------------------- stepping
+    def _resolve_tool(self, tool: ToolInput, t: float) -> Tool | None:
+        if tool is None or isinstance(tool, Tool):
+            return tool
+        if isinstance(tool, ToolPath):
+            return tool.pose_at(t)
+        if callable(tool):
+            return tool(t)
+        raise InputError(f"tool must be a Tool, a ToolPath or a callable t -> Tool, got {type(tool)}")
+
+    def _check_tool_premise(self, tool: Tool) -> None:
+        """The paper's premise: the tool starts outside the tissue."""
+        self._tool_checked = True
+        inside = cylinder_contacts(self.positions, tool.p0, tool.p1, tool.radius, self.device)
+        if inside.any():
+            first = int(np.flatnonzero(inside)[0])
+            raise ToolStartsInside(
+                f"the tool starts inside the tissue: {int(inside.sum())} nodes (first: node {first}) "
+                f"lie within the cylinder p0={tool.p0.tolist()} p1={tool.p1.tolist()} "
+                f"r={tool.radius}; start it outside (the paper's premise)")
+
+    def step(self, n: int = 1, tool: ToolInput = None) -> None:
+        """Advance n steps of dt. ``tool``: a fixed Tool pose, a ToolPath evaluated at the end
+        of each step, a callable t -> Tool, or None. Raises SimulationUnstable before any
+        non-finite value can be read back."""
+        if n < 0:
+            raise InputError(f"n must be >= 0, got {n}")
+        h = self.substep
+        for _ in range(int(n)):
+            pose = self._resolve_tool(tool, self.time + self.dt)
+            if pose is not None and not self._tool_checked and self.collision:
+                self._check_tool_premise(self._resolve_tool(tool, self.time))
+            use_tool = pose is not None and self.collision
+            if use_tool:
+                self.solver.clear_tool_stats()
+            for _ in range(self.substeps):
+                self.solver.step(self._state, self._next, pose, h)
+                self._state, self._next = self._next, self._state
+            self._step_count += 1
+            if use_tool:
+                self._read_tool_stats()
+            else:
+                self.tool_force = np.zeros(3)
+                self.contact_count = 0.0
+        self.check_finite()
+
+    def _read_tool_stats(self) -> None:
+        s = self.solver
+        count = int(s.contact_count.numpy()[0])
+        self.tool_force = s.tool_force.numpy()[0].astype(np.float64) / self.substeps
+        self.contact_count = count / self.substeps
+        if count and self.first_contact_time is None:
+            self.first_contact_time = self.time
+            self.first_contact_point = s.contact_position_sum.numpy()[0].astype(np.float64) / count
+
+    def check_finite(self) -> None:
+        """Raise SimulationUnstable if any active node is non-finite or has run away."""
+        from .kernels.diagnostics import find_runaway_nodes
+
+        m = self.device_model
+        first_bad = wp.array([m.node_count], dtype=wp.int32, device=self.device)
+        wp.launch(find_runaway_nodes, dim=m.node_count, device=self.device,
+                  inputs=[self._state.positions, self._state.velocities, m.rest_positions,
+                          m.node_flags, self.max_displacement, first_bad])
+        node = int(first_bad.numpy()[0])
+        if node < m.node_count:
+            x = self._state.positions.numpy()[node]
+            v = self._state.velocities.numpy()[node]
+            finite = np.all(np.isfinite(x)) and np.all(np.isfinite(v))
+            reason = ("has a non-finite position or velocity" if not finite
+                      else f"moved more than {self.max_displacement:.3g} m from rest")
+            raise SimulationUnstable(node, self.time, self.substep, self.step_limit.step, reason)

@@ -1,0 +1,28 @@
+"""State: what a step advances (positions and velocities of the nodes)."""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+__all__ = ["State"]
+
+
+class State:
+    """Node state on the device.
+
+    positions: (node_count,) vec3 [m]; velocities: (node_count,) vec3 [m/s];
+    forces: (node_count,) vec3 [N], the accumulator the force kernels add into.
+    """
+
+    def __init__(self, positions: np.ndarray, velocities: np.ndarray | None = None,
+                 device: str = "cpu"):
+        x = np.asarray(positions, dtype=np.float32).reshape(-1, 3)
+        v = np.zeros_like(x) if velocities is None else np.asarray(velocities, np.float32).reshape(-1, 3)
+        self.positions = wp.array(x, dtype=wp.vec3, device=device)
+        self.velocities = wp.array(v, dtype=wp.vec3, device=device)
+        self.forces = wp.zeros(len(x), dtype=wp.vec3, device=device)
+
+    @property
+    def node_count(self) -> int:
+        return self.positions.shape[0]
