@@ -19,6 +19,8 @@ spring force the node exerts, whatever D is).
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})
+
 TOOL_MIN_LENGTH = 1.0e-12
 """Tools shorter than this [m] have no volume and touch nothing."""
 

@@ -2,6 +2,8 @@
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})
+
 
 @wp.kernel
 def find_runaway_nodes(

@@ -10,6 +10,8 @@ The kernel also clears ``forces`` for the next substep, which saves a launch.
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})
+
 
 @wp.kernel
 def integrate_semi_implicit(

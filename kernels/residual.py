@@ -13,6 +13,8 @@ stiffness is F / eps, which the stable-step estimate uses.
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})
+
 
 @wp.kernel
 def residual_link_forces(

@@ -8,6 +8,8 @@ if ``L0 == 0``, where the force is zero anyway).
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})
+
 SPRING_MIN_LENGTH = 1.0e-12
 """Below this length [m] a spring has no direction and exerts no force."""
 

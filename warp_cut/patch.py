@@ -2,7 +2,8 @@
 
 Rows of nodes are staggered by half a spacing (a triangular lattice), so interior triangles
 are nearly equilateral; the two side borders stay straight by adding a node at each end of
-the staggered rows, which makes the border triangles 30-60-90 at worst. Triangles are wound
+the staggered rows, which makes the border triangles about 30-60-90 (the row pitch is rounded to fit
+the size, so their smallest angle can fall a few degrees below 30). Triangles are wound
 counter-clockwise seen from +Z (normal +Z).
 """
 
@@ -39,8 +40,10 @@ def _zip_rows(lower, upper, lower_x, upper_x):
 def skin_patch_mesh(size=(0.10, 0.06), spacing: float = 2.0e-3, origin=None):
     """Points (n, 3) [m] and triangles (t, 3) of a size[0] x size[1] patch centred on the origin.
 
-    The spacing [m] is adjusted so that a whole number of nodes fits each side exactly
-    (along x: size[0] / round(size[0] / spacing); along y the row pitch is ~ spacing * sqrt(3)/2).
+    The spacing [m] is adjusted so that whole numbers of rows and columns fit the size exactly:
+    the row pitch is size[1] / round(size[1] / (spacing sqrt(3)/2)) and the column pitch is
+    fitted to it (about 2/sqrt(3) x the row pitch). Patches only a few spacings wide have
+    flatter triangles.
     """
     width, height = (float(v) for v in size)
     spacing = float(spacing)
@@ -48,8 +51,9 @@ def skin_patch_mesh(size=(0.10, 0.06), spacing: float = 2.0e-3, origin=None):
         raise InputError(f"tissue.size must be two positive lengths [m], got {size}")
     if not (np.isfinite(spacing) and spacing > 0):
         raise InputError(f"tissue.spacing must be > 0 m, got {spacing}")
-    nx = max(1, round(width / spacing))
     ny = max(1, round(height / (spacing * math.sqrt(3.0) / 2.0)))
+    # fit the columns to the rounded row pitch, so triangles stay near-equilateral
+    nx = max(1, round(width * math.sqrt(3.0) / (2.0 * height / ny)))
     if (nx + 1) * (ny + 1) > 20_000_000:
         raise InputError(
             f"tissue.spacing {spacing} m gives {(nx + 1) * (ny + 1)} nodes; allowed up to 2e7"

@@ -78,6 +78,8 @@ class Simulator:
         """Time [s] at the end of the first step with a contact, or None."""
         self.first_contact_point: np.ndarray | None = None
         """Mean position [m] of the nodes in contact during that step, or None."""
+        self.max_tool_force = 0.0
+        """Largest |tool_force| of any step so far [N]."""
         self._rebuild()
 
     # --------------------------------------------------------------- set-up
@@ -142,6 +144,18 @@ class Simulator:
         """The current device state (positions and velocities as Warp arrays)."""
         return self._state
 
+    def set_state(self, positions=None, velocities=None) -> None:
+        """Overwrite node positions [m] and/or velocities [m/s], each (node_count, 3)."""
+        n = self.model.node_count
+        for name, value, target in (("positions", positions, self._state.positions),
+                                    ("velocities", velocities, self._state.velocities)):
+            if value is None:
+                continue
+            arr = np.asarray(value, dtype=np.float64)
+            if arr.shape != (n, 3) or not np.all(np.isfinite(arr)):
+                raise InputError(f"{name} must be finite with shape ({n}, 3), got {arr.shape}")
+            target.assign(arr.astype(np.float32))
+
     def kinetic_energy(self) -> float:
         """Sum of 0.5 m |v|^2 over the nodes [J]."""
         from .kernels.diagnostics import kinetic_energy
@@ -162,8 +176,9 @@ class Simulator:
             return tool(t)
         raise InputError(f"tool must be a Tool, a ToolPath or a callable t -> Tool, got {type(tool)}")
 
-    def _check_tool_premise(self, tool: Tool) -> None:
-        """The paper's premise: the tool starts outside the tissue."""
+    def check_tool_outside(self, tool: Tool) -> None:
+        """Raise ToolStartsInside unless ``tool`` touches no node (the paper's premise:
+        the tool starts outside the tissue). ``step`` checks the first pose it is given."""
         self._tool_checked = True
         inside = cylinder_contacts(self.positions, tool.p0, tool.p1, tool.radius, self.device)
         if inside.any():
@@ -183,7 +198,7 @@ class Simulator:
         for _ in range(int(n)):
             pose = self._resolve_tool(tool, self.time + self.dt)
             if pose is not None and not self._tool_checked and self.collision:
-                self._check_tool_premise(self._resolve_tool(tool, self.time))
+                self.check_tool_outside(self._resolve_tool(tool, self.time))
             use_tool = pose is not None and self.collision
             if use_tool:
                 self.solver.clear_tool_stats()
@@ -203,6 +218,7 @@ class Simulator:
         count = int(s.contact_count.numpy()[0])
         self.tool_force = s.tool_force.numpy()[0].astype(np.float64) / self.substeps
         self.contact_count = count / self.substeps
+        self.max_tool_force = max(self.max_tool_force, float(np.linalg.norm(self.tool_force)))
         if count and self.first_contact_time is None:
             self.first_contact_time = self.time
             self.first_contact_point = s.contact_position_sum.numpy()[0].astype(np.float64) / count

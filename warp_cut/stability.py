@@ -2,13 +2,15 @@
 
 For semi-implicit Euler the linear stability limit of an undamped system is
 ``h < 2 / omega_max`` with ``omega_max^2 = lambda_max(M^-1 K)``. Gershgorin's theorem bounds
-``lambda_max <= max_i 2 S_i / m_i`` where S_i sums the stiffness of the springs at node i,
-each scaled by its geometric factor ``max(1, |1 - L0 / L|)`` (the transverse stiffness of a
-stretched or compressed spring), plus F / eps for each residual link. So
+``lambda_max <= max_i R_i / m_i`` with the row sum ``R_i = sum_j k_ij g_ij (1 + [j free])``:
+each spring at node i counts once on the diagonal and once more off it unless its other end is
+pinned; ``g = max(1, |1 - L0 / L|)`` is the geometric factor (the transverse stiffness of a
+stretched or compressed spring), and a residual link counts with its largest stiffness F / eps.
+With every neighbour free, R_i = 2 S_i (S_i the stiffness sum at node i), so
 
     h_undamped = min_i sqrt(2 m_i / S_i)
 
-is always safe. With the implicit damping of the integrator (c = D / m), a mode of frequency
+and springs to pinned nodes only make it larger. It is always safe. With the implicit damping of the integrator (c = D / m), a mode of frequency
 omega is stable for ``h < (c + sqrt(c^2 + 4 omega^2)) / omega^2``, which grows with c; the
 damped limit uses the smallest c and the largest omega (mass-proportional damping is exact
 here, other damping conservative in practice).
@@ -46,19 +48,21 @@ def spring_geometric_factor(lengths: np.ndarray, rest_lengths: np.ndarray) -> np
 
 
 def node_stiffness_sums(model, positions: np.ndarray | None = None) -> np.ndarray:
-    """S_i [N/m], (node_count,): stiffness at each node, springs and residual links."""
+    """Gershgorin row sums R_i [N/m], (node_count,): springs and residual links at each node,
+    counted twice unless the other end is pinned (see the module docstring)."""
     x = model.points if positions is None else np.asarray(positions, dtype=np.float64)
     sums = np.zeros(model.node_count)
-    springs = model.springs
-    if len(springs):
-        lengths = np.linalg.norm(x[springs[:, 1]] - x[springs[:, 0]], axis=1)
-        k = model.stiffness * spring_geometric_factor(lengths, model.rest_lengths)
-        np.add.at(sums, springs[:, 0], k)
-        np.add.at(sums, springs[:, 1], k)
-    if model.link_count:
-        k = model.link_force / model.link_smoothing
-        np.add.at(sums, model.links[:, 0], k)
-        np.add.at(sums, model.links[:, 1], k)
+    free = (~model.pinned).astype(np.float64)
+    pairs = [(model.springs, None), (model.links, model.link_force / np.maximum(model.link_smoothing, 1e-30))]
+    for edges, k in pairs:
+        if not len(edges):
+            continue
+        i, j = edges[:, 0], edges[:, 1]
+        if k is None:
+            lengths = np.linalg.norm(x[j] - x[i], axis=1)
+            k = model.stiffness * spring_geometric_factor(lengths, model.rest_lengths)
+        np.add.at(sums, i, k * (1.0 + free[j]))
+        np.add.at(sums, j, k * (1.0 + free[i]))
     return sums
 
 
@@ -71,7 +75,7 @@ def stable_time_step(model, positions: np.ndarray | None = None, *,
     if not np.any(candidates):
         return StepLimit(float("inf"), float("inf"), -1, 0.0)
     omega2 = np.zeros(model.node_count)
-    omega2[candidates] = 2.0 * sums[candidates] / model.masses[candidates]
+    omega2[candidates] = sums[candidates] / model.masses[candidates]
     node = int(np.argmax(omega2))
     w2 = float(omega2[node])
     undamped = 2.0 / np.sqrt(w2)

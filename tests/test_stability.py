@@ -1,0 +1,100 @@
+"""warp_cut/stability.py: the computed stable step is safe, and instability is caught, never a NaN."""
+
+import math
+
+import numpy as np
+import pytest
+
+from warp_cut import SimulationUnstable, Simulator, TissueModel, stable_time_step
+from warp_cut.stability import spring_geometric_factor
+
+from conftest import DEVICE, chain_model
+
+
+def exact_limit(model, damping_per_mass=0.0):
+    """Exact linear stability limit of semi-implicit Euler from the eigenvalues of M^-1 K
+    (rest configuration, free nodes only), for mass-proportional damping c."""
+    n = model.node_count
+    K = np.zeros((3 * n, 3 * n))
+    for (i, j), k, L0 in zip(model.springs, model.stiffness, model.rest_lengths):
+        d = model.points[j] - model.points[i]
+        u = d / np.linalg.norm(d)
+        block = k * np.outer(u, u)  # at rest length the transverse stiffness is zero
+        for a, b, s in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
+            K[3 * a:3 * a + 3, 3 * b:3 * b + 3] += s * block
+    free = np.repeat(~model.pinned, 3)
+    minv = np.repeat(1.0 / np.sqrt(model.masses), 3)[free]
+    A = minv[:, None] * K[np.ix_(free, free)] * minv[None, :]
+    w2 = np.linalg.eigvalsh(A).max()
+    c = damping_per_mass
+    return (c + math.sqrt(c * c + 4 * w2)) / w2
+
+
+def energy_bounded_run(model, h, steps):
+    """Max displacement every 100 steps after a random perturbation along the chain axis
+    (the linear regime the limit speaks of)."""
+    sim = Simulator(model, dt=h, substeps=1, gravity=None, device=DEVICE)
+    rng = np.random.default_rng(0)
+    free = ~model.pinned
+    x0 = model.points.copy()
+    x0[free, 2] += rng.normal(scale=1e-3, size=free.sum())
+    sim.set_state(positions=x0)
+    amp = []
+    for _ in range(steps // 100):
+        sim.step(100)
+        amp.append(np.abs(sim.positions - model.points).max())
+    return np.array(amp)
+
+
+def test_estimate_is_below_the_exact_limit():
+    for n in (1, 4, 10):
+        model = chain_model(n, mass=0.01, stiffness=100.0)
+        est = stable_time_step(model, include_damping=False).step
+        assert est <= exact_limit(model) * (1 + 1e-12)
+        if n > 2:  # an interior node has two springs to free nodes: sqrt(2 m / sum k)
+            assert est == pytest.approx(math.sqrt(2 * 0.01 / 200.0))
+    # a single oscillator is exactly at its limit 2 / omega
+    one = chain_model(1, mass=0.01, stiffness=100.0)
+    assert stable_time_step(one).step == pytest.approx(exact_limit(one))
+
+
+def test_undamped_chain_at_095_of_computed_limit_stays_bounded():
+    model = chain_model(8, mass=0.01, stiffness=100.0)
+    h = 0.95 * stable_time_step(model).step
+    amp = energy_bounded_run(model, h, 20000)
+    assert np.all(np.isfinite(amp)) and amp.max() < 0.02
+
+
+def test_well_above_exact_limit_is_caught_not_nan():
+    model = chain_model(8, mass=0.01, stiffness=100.0)
+    h = 1.5 * exact_limit(model)
+    with pytest.raises(SimulationUnstable) as info:
+        energy_bounded_run(model, h, 20000)
+    err = info.value
+    assert 0 <= err.node < model.node_count and err.step == pytest.approx(h)
+    assert err.safe_step == pytest.approx(stable_time_step(model).step)
+    assert "stable step" in str(err) and "node" in str(err)
+
+
+def test_damped_limit_is_safe_and_larger():
+    m, k, D = 1e-3, 100.0, 0.5
+    model = chain_model(6, mass=m, stiffness=k, damping=D)
+    lim = stable_time_step(model)
+    assert lim.step > lim.undamped_step
+    assert lim.step <= exact_limit(model, D / m) * (1 + 1e-12)
+    amp = energy_bounded_run(model, 0.95 * lim.step, 5000)
+    assert amp.max() < 0.01
+
+
+def test_auto_substeps_respect_the_limit():
+    model = TissueModel.from_patch((0.02, 0.02), 0.002)
+    sim = Simulator(model, dt=0.05, substeps="auto", device=DEVICE)
+    assert sim.substep <= 0.5 * sim.step_limit.step + 1e-15
+    assert sim.substeps == math.ceil(0.05 / (0.5 * sim.step_limit.step))
+    auto = Simulator(model, dt="auto", device=DEVICE)
+    assert auto.substeps == 1 and auto.dt == pytest.approx(0.5 * auto.step_limit.step)
+
+
+def test_geometric_factor_for_stretched_and_compressed_springs():
+    np.testing.assert_allclose(spring_geometric_factor([1.0, 2.0, 0.25, 0.0], [1.0, 1.0, 1.0, 1.0]),
+                               [1.0, 1.0, 3.0, 1e12])

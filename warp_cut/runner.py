@@ -1,0 +1,124 @@
+"""The run loop of a scene: build, step frame by frame, measure, write outputs atomically."""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .io import write_csv, write_json
+from .scene import Scene
+from .simulator import Simulator
+from .stability import stable_time_step
+
+__all__ = ["RunResult", "prepare_simulation", "run_scene", "write_outputs", "TIMESERIES_COLUMNS"]
+
+TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy"]
+"""Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J]."""
+
+
+@dataclass
+class RunResult:
+    """What a run measured. metrics: the metrics.json content; columns: name -> (frames,)."""
+
+    metrics: dict
+    columns: dict = field(default_factory=dict)
+
+
+def prepare_simulation(scene: Scene):
+    """Build the model and a Simulator whose dt divides the frame time exactly.
+
+    Returns (model, simulator, tool_path, steps_per_frame). Raises InputError (bad scene, tool inside tissue).
+    """
+    model = scene.build_model()
+    frame_dt = 1.0 / scene.fps
+    dt = scene.solver["dt"]
+    if dt == "auto":
+        limit = stable_time_step(model).step
+        target = scene.solver["safety"] * limit if math.isfinite(limit) else frame_dt
+        substeps = 1 if scene.solver["substeps"] == "auto" else scene.solver["substeps"]
+        target *= substeps
+    else:
+        target = dt
+    steps_per_frame = max(1, math.ceil(frame_dt / target - 1e-9))
+    options = scene.simulator_options()
+    sim = Simulator(model, dt=frame_dt / steps_per_frame, **options)
+    path = scene.tool_path()
+    if path is not None and scene.physics["collision"]:
+        sim.check_tool_outside(path.pose_at(0.0))
+    return model, sim, path, steps_per_frame
+
+
+def _progress(total: int, quiet: bool):
+    if quiet or not sys.stderr.isatty():
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="frame", desc="simulating", leave=False)
+
+
+def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
+    """Run a scene to its end. ``observers`` get ``on_frame(sim, frame)`` after every output
+    frame (frame 0 is the initial state) and ``finish(metrics)`` at the end."""
+    model, sim, path, steps_per_frame = prepare_simulation(scene)
+    frames = scene.frame_count
+    cols = {c: np.zeros(frames + 1) for c in TIMESERIES_COLUMNS}
+    bar = _progress(frames, quiet)
+    for obs in observers:
+        obs.on_frame(sim, 0)
+    start = time.perf_counter()
+    try:
+        for frame in range(frames + 1):
+            if frame:
+                sim.step(steps_per_frame, tool=path)
+                for obs in observers:
+                    obs.on_frame(sim, frame)
+                if bar is not None:
+                    bar.update(1)
+            cols["t"][frame] = sim.time
+            cols["tool_fx"][frame], cols["tool_fy"][frame], cols["tool_fz"][frame] = sim.tool_force
+            cols["contacts"][frame] = sim.contact_count
+            cols["kinetic_energy"][frame] = sim.kinetic_energy()
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - start
+    metrics = {
+        "name": scene.name,
+        "scene_file": str(scene.path) if scene.path else None,
+        "nodes": model.node_count,
+        "springs": model.spring_count,
+        "triangles": model.triangle_count,
+        "frames": frames,
+        "steps": frames * steps_per_frame,
+        "dt": sim.dt,
+        "substeps": sim.substeps,
+        "substep_s": sim.substep,
+        "stable_step_s": sim.step_limit.step,
+        "stable_step_undamped_s": sim.step_limit.undamped_step,
+        "integrator": sim.integrator,
+        "sim_time_s": sim.time,
+        "wall_time_s": wall,
+        "realtime_factor": sim.time / wall if wall > 0 else None,
+        "first_contact_time_s": sim.first_contact_time,
+        "first_contact_point": sim.first_contact_point,
+        "max_tool_force_n": sim.max_tool_force,
+        "finite": True,
+    }
+    for obs in observers:
+        obs.finish(metrics)
+    return RunResult(metrics, cols)
+
+
+def write_outputs(result: RunResult, out_dir) -> list[Path]:
+    """Write metrics.json and timeseries.csv into out_dir (each atomically)."""
+    out = Path(out_dir)
+    columns = list(result.columns)
+    rows = zip(*(result.columns[c] for c in columns))
+    write_csv(out / "timeseries.csv", columns, ([float(v) for v in row] for row in rows))
+    write_json(out / "metrics.json", result.metrics)
+    return [out / "timeseries.csv", out / "metrics.json"]
