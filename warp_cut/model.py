@@ -82,6 +82,10 @@ class TissueModel:
         link_force: sigma_r * A [N], (link_count,) float64.
         link_smoothing: regularisation length [m], (link_count,) float64.
         material: the Material the model was built with.
+        active: (node_count,) bool; False for node slots deleted by a cut (kept so indices of
+            the survivors do not change; no spring, link or triangle refers to them).
+        node_class: (node_count,) int8 NodeClass; spring_class: (spring_count,) int8 SpringClass.
+        topology_version: incremented by every topology edit (exporters re-author topology).
     """
 
     def __init__(self, points, masses, springs, rest_lengths, stiffness, damping,
@@ -98,6 +102,10 @@ class TissueModel:
         self.links = np.zeros((0, 2), dtype=np.int64)
         self.link_force = np.zeros(0)
         self.link_smoothing = np.zeros(0)
+        self.active = np.ones(len(points), dtype=bool)
+        self.node_class = np.zeros(len(points), dtype=np.int8)
+        self.spring_class = np.zeros(len(springs), dtype=np.int8)
+        self.topology_version = 0
 
     # ----------------------------------------------------------------- constructors
     @classmethod
