@@ -140,6 +140,12 @@ class Simulator:
         return self._state.velocities.numpy().astype(np.float64)
 
     @property
+    def incision_controls(self) -> np.ndarray | None:
+        """Control points [m] of the incision's cubic Bezier chain, (3 s + 1, 3) for s segments
+        (end points shared), or None while there is no incision."""
+        return None
+
+    @property
     def state(self) -> State:
         """The current device state (positions and velocities as Warp arrays)."""
         return self._state
