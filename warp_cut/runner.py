@@ -106,6 +106,8 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
         "realtime_factor": sim.time / wall if wall > 0 else None,
         "first_contact_time_s": sim.first_contact_time,
         "first_contact_point": sim.first_contact_point,
+        "first_contact_time_exact_s": sim.first_contact_time_exact,
+        "first_contact_point_exact": sim.first_contact_point_exact,
         "max_tool_force_n": sim.max_tool_force,
         "finite": True,
     }

@@ -80,6 +80,13 @@ class Simulator:
         """Mean position [m] of the nodes in contact during that step, or None."""
         self.max_tool_force = 0.0
         """Largest |tool_force| of any step so far [N]."""
+        self.tool_pose: Tool | None = None
+        """The tool pose of the last step (its end), or None before the first step with a tool."""
+        self.first_contact_time_exact: float | None = None
+        """Exact first-contact time [s] of the swept tool (continuous detection), or None."""
+        self.first_contact_point_exact: np.ndarray | None = None
+        """Mean position [m] of the nodes the swept tool reaches first, or None."""
+        self._ccd = None
         self._rebuild()
 
     # --------------------------------------------------------------- set-up
@@ -207,7 +214,9 @@ class Simulator:
                 self.check_tool_outside(self._resolve_tool(tool, self.time))
             use_tool = pose is not None and self.collision
             if use_tool:
+                self._continuous_first_contact(self.tool_pose or self._resolve_tool(tool, self.time), pose)
                 self.solver.clear_tool_stats()
+            self.tool_pose = pose
             for _ in range(self.substeps):
                 self.solver.step(self._state, self._next, pose, h)
                 self._state, self._next = self._next, self._state
@@ -218,6 +227,23 @@ class Simulator:
                 self.tool_force = np.zeros(3)
                 self.contact_count = 0.0
         self.check_finite()
+
+    def _continuous_first_contact(self, start: Tool, end: Tool) -> None:
+        """Continuous detection over the coming step: the tool's end points move linearly from
+        ``start`` to ``end``, the nodes with their current velocity. Evaluated each step until
+        a first contact is known (one extra per-node launch per step before contact)."""
+        if self.first_contact_time_exact is not None or self.first_contact_time is not None:
+            return
+        from .ccd import ContinuousDetector
+
+        if self._ccd is None:
+            self._ccd = ContinuousDetector(self.device)
+        hit = self._ccd.first_contact(self._state.positions, self._state.velocities,
+                                      self.device_model.node_flags, start, end,
+                                      t_start=self.time, interval=self.dt)
+        if hit is not None:
+            self.first_contact_time_exact = hit.time
+            self.first_contact_point_exact = hit.point
 
     def _read_tool_stats(self) -> None:
         s = self.solver
