@@ -208,6 +208,24 @@ def first_entry(q0: wp.vec3d, dq: wp.vec3d, u0: wp.vec3d, du: wp.vec3d, radius: 
 
 
 @wp.func
+def beyond_reach(q0: wp.vec3d, dq: wp.vec3d, u0: wp.vec3d, du: wp.vec3d, radius: wp.float64):
+    """Cheap conservative test: True if the node stays outside the tool's bounding sphere
+    (centre the axis midpoint, radius sqrt((|u| / 2)^2 + r^2)) over the whole interval.
+    |u| is convex in tau, so its largest value is at an end."""
+    half = wp.float64(0.5)
+    d0 = q0 - u0 * half  # node relative to the midpoint, linear in tau
+    dd = dq - du * half
+    t = wp.float64(0.0)
+    ddd = wp.dot(dd, dd)
+    if ddd > wp.float64(0.0):
+        t = wp.clamp(-wp.dot(d0, dd) / ddd, wp.float64(0.0), wp.float64(1.0))
+    d = d0 + dd * t
+    u1 = u0 + du
+    reach = wp.float64(0.25) * wp.max(wp.dot(u0, u0), wp.dot(u1, u1)) + radius * radius
+    return wp.dot(d, d) > reach * wp.float64(1.0000001)
+
+
+@wp.func
 def to_vec3d(x: wp.vec3):
     return wp.vec3d(wp.float64(x[0]), wp.float64(x[1]), wp.float64(x[2]))
 
@@ -241,7 +259,8 @@ def swept_cylinder_first_contact(
         dq = dx - (p0b - p0a)
         u0 = p1a - p0a
         du = (p1b - p0b) - u0
-        tau = first_entry(q0, dq, u0, du, radius)
+        if not beyond_reach(q0, dq, u0, du, radius):
+            tau = first_entry(q0, dq, u0, du, radius)
     contact_tau[i] = tau
     if tau < _NONE:
         wp.atomic_min(earliest, 0, tau)
