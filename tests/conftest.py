@@ -25,3 +25,25 @@ def chain_model(n_free, *, mass=0.01, stiffness=10.0, spacing=0.1, damping=0.0, 
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "invalid_usd: the test writes broken USD files on purpose")
+
+
+@pytest.fixture(autouse=True)
+def _exported_usd_passes_checks(request):
+    """Every USD stage a test leaves in its tmp_path passes the per-time-sample checker and
+    the pxr.UsdValidation validators."""
+    if "tmp_path" not in request.fixturenames or request.node.get_closest_marker("invalid_usd"):
+        yield
+        return
+    tmp = request.getfixturevalue("tmp_path")  # before the test, so it outlives this check
+    yield
+    from warp_cut.usd_check import check_usd, validate_usd
+
+    for path in sorted(tmp.rglob("*.usd*")):
+        if path.parent.name.endswith("_clips") or path.name.startswith("."):
+            continue
+        assert check_usd(path) == [], path
+        assert validate_usd(path) == [], path

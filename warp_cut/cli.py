@@ -1,6 +1,7 @@
 """Command line: ``warp-cut run``, ``warp-cut validate``.
 
-Exit codes: 0 success, 2 bad input (nothing written), 3 simulation unstable (nothing written).
+Exit codes: 0 success, 1 a check found problems (``usd-check``), 2 bad input (nothing
+written), 3 simulation unstable (nothing written).
 """
 
 from __future__ import annotations
@@ -10,10 +11,11 @@ import os
 import sys
 
 from .errors import InputError, SimulationUnstable
+from .usd_export import DEFAULT_CHUNK_FRAMES
 
 __all__ = ["main"]
 
-EXIT_OK, EXIT_BAD_INPUT, EXIT_UNSTABLE = 0, 2, 3
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_UNSTABLE = 0, 1, 2, 3
 
 
 def _quiet_warp() -> None:
@@ -26,15 +28,33 @@ def _quiet_warp() -> None:
 
 
 def _cmd_run(args) -> int:
+    """Run a scene; write metrics, time series, pictures and (unless --no-usd) USD."""
+    from .errors import WarpCutError
+    from .plots import FinalFrame, write_run_plots
     from .runner import run_scene, write_outputs
     from .scene import load_scene
+    from .usd_export import UsdRecorder
 
     scene = load_scene(args.scene, args.set)
     out = args.out or os.path.join("out", scene.name)
     if os.path.exists(out) and not os.path.isdir(out):
         raise InputError(f"--out {out}: exists and is not a directory")
-    result = run_scene(scene, quiet=args.quiet)
+    final = FinalFrame()
+    recorder = None
+    if not args.no_usd:
+        recorder = UsdRecorder(args.usd or os.path.join(out, f"{scene.name}.usdc"), scene,
+                               chunk_frames=args.usd_chunk)
+    try:
+        result = run_scene(scene, quiet=args.quiet,
+                           observers=[final] + ([recorder] if recorder else []))
+    except WarpCutError:
+        if recorder is not None:  # bad input or unstable: leave nothing behind
+            recorder.abort()
+        raise
     written = write_outputs(result, out)
+    written += write_run_plots(out, result.columns, final.picture, scene.name)
+    if recorder is not None:
+        written.append(recorder.path)
     if not args.quiet:
         m = result.metrics
         print(f"{scene.name}: {m['nodes']} nodes, {m['springs']} springs, {m['steps']} steps of "
@@ -57,6 +77,29 @@ def _cmd_validate(args) -> int:
     return EXIT_OK
 
 
+def _cmd_usd_check(args) -> int:
+    from .usd_check import check_usd, validate_usd
+
+    bad = 0
+    for path in args.paths:
+        if not os.path.isfile(path):
+            raise InputError(f"{path}: file not found")
+        problems = check_usd(path) + [f"{path}: {m}" for m in validate_usd(path)]
+        for p in problems:
+            print(p)
+        if not problems:
+            print(f"{path}: ok")
+        bad += bool(problems)
+    return EXIT_CHECK_FAILED if bad else EXIT_OK
+
+
+def _cmd_usd_flatten(args) -> int:
+    from .usd_export import flatten_usd
+
+    print(f"wrote {flatten_usd(args.source, args.target)}")
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="warp-cut", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -67,11 +110,27 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                      help="override a scene key (TOML value syntax); repeatable")
     run.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    usd = run.add_mutually_exclusive_group()
+    usd.add_argument("--usd", metavar="PATH",
+                     help="USD playback file (.usdc, or .usda for small debug runs; "
+                          "default: OUT/<scene name>.usdc)")
+    usd.add_argument("--no-usd", action="store_true", help="do not write USD")
+    run.add_argument("--usd-chunk", type=int, default=DEFAULT_CHUNK_FRAMES, metavar="FRAMES",
+                     help="frames per USD chunk file: memory held, and the most a killed run "
+                          f"loses (default {DEFAULT_CHUNK_FRAMES})")
     run.set_defaults(func=_cmd_run)
     val = sub.add_parser("validate", help="check a scene without running it")
     val.add_argument("scene")
     val.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
     val.set_defaults(func=_cmd_validate)
+    chk = sub.add_parser("usd-check", help="check exported USD files time sample by time sample "
+                                           "(exit 1 if a problem is found)")
+    chk.add_argument("paths", nargs="+", metavar="FILE")
+    chk.set_defaults(func=_cmd_usd_check)
+    flat = sub.add_parser("usd-flatten", help="resolve an export's chunk files into one USD file")
+    flat.add_argument("source")
+    flat.add_argument("target")
+    flat.set_defaults(func=_cmd_usd_flatten)
     return parser
 
 

@@ -13,16 +13,24 @@ import numpy as np
 
 __all__ = ["atomic_path", "write_json", "write_csv"]
 
+_UMASK = os.umask(0o022)
+os.umask(_UMASK)
+_FILE_MODE = 0o666 & ~_UMASK
+"""Mode of a finished output file: what open() would give (mkstemp makes 0600)."""
+
 
 @contextlib.contextmanager
-def atomic_path(path):
-    """Yield a temporary path next to ``path``; rename it onto ``path`` only on success."""
+def atomic_path(path, suffix: str = ".tmp"):
+    """Yield a temporary path next to ``path``; rename it onto ``path`` only on success.
+
+    ``suffix`` ends the temporary name (writers that pick a format by extension need it)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
     os.close(fd)
     try:
         yield Path(tmp)
+        os.chmod(tmp, _FILE_MODE)
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):

@@ -1,0 +1,180 @@
+"""Pictures of a run (matplotlib, no display needed): a look without a USD viewer.
+
+* ``preview.png`` - the final mesh seen from above (XY, mm), node classes coloured, the
+  incision curve and the tool's axis drawn;
+* ``tool_force.png`` - the tool force over time;
+* ``width.png`` - the incision width over time (when the time series has ``incision_width_m``),
+  with its peak, plateau and settling time marked.
+
+Each file is written atomically. Figures are built with the object API (no pyplot state).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .classes import NODE_CLASS_COLORS, NodeClass
+from .io import atomic_path
+
+__all__ = ["FinalFrame", "RunPicture", "plot_preview", "plot_series", "write_run_plots",
+           "WIDTH_COLUMN"]
+
+WIDTH_COLUMN = "incision_width_m"
+"""Time-series column holding the incision width [m]."""
+
+_MM = 1e3
+
+
+@dataclass
+class RunPicture:
+    """What the preview shows: positions (n, 3) [m], triangles (t, 3), active (n,) bool,
+    node_class (n,) int, incision control points (3 s + 1, 3) [m] or None, tool end points
+    ((3,), (3,)) [m] or None, time [s]."""
+
+    positions: np.ndarray
+    triangles: np.ndarray
+    active: np.ndarray
+    node_class: np.ndarray
+    incision: np.ndarray | None = None
+    tool: tuple | None = None
+    time: float = 0.0
+
+
+class FinalFrame:
+    """Run observer that keeps the final state as a RunPicture (``picture`` after finish)."""
+
+    def __init__(self):
+        self._sim = None
+        self.picture: RunPicture | None = None
+
+    def on_frame(self, sim, frame: int) -> None:
+        self._sim = sim
+
+    def finish(self, metrics: dict | None = None) -> None:
+        sim = self._sim
+        if sim is None:
+            return
+        m = sim.model
+        pose = getattr(sim, "tool_pose", None)
+        self.picture = RunPicture(
+            positions=sim.positions, triangles=np.asarray(m.triangles).reshape(-1, 3),
+            active=np.asarray(m.active, dtype=bool), node_class=np.asarray(m.node_class),
+            incision=sim.incision_controls, time=sim.time,
+            tool=None if pose is None else (pose.p0.copy(), pose.p1.copy()))
+
+
+def _figure(width=6.4, height=4.8):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), dpi=120)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig, path) -> Path:
+    path = Path(path)
+    with atomic_path(path, suffix=".png") as tmp:
+        fig.savefig(tmp, format="png")
+    return path
+
+
+def plot_preview(path, picture: RunPicture, title: str = "") -> Path:
+    """Draw the mesh from above with node classes coloured; returns the path written."""
+    from matplotlib.collections import PolyCollection
+
+    from .bezier import BezierChain
+
+    x = np.asarray(picture.positions, dtype=np.float64) * _MM
+    tri = np.asarray(picture.triangles, dtype=np.int64).reshape(-1, 3)
+    fig = _figure(7.0, 5.6)
+    ax = fig.add_subplot(1, 1, 1)
+    if len(tri):
+        ax.add_collection(PolyCollection(x[tri][:, :, :2], facecolors=[NODE_CLASS_COLORS[NodeClass.NORMAL]],
+                                         edgecolors=[(0.45, 0.3, 0.25)], linewidths=0.3))
+    active = np.asarray(picture.active, dtype=bool)
+    classes = np.asarray(picture.node_class)
+    for cls in NodeClass:
+        if cls == NodeClass.NORMAL:
+            continue
+        sel = active & (classes == cls)
+        if sel.any():
+            ax.scatter(x[sel, 0], x[sel, 1], s=10, color=NODE_CLASS_COLORS[cls], zorder=3,
+                       label=f"{cls.name.lower()} ({int(sel.sum())})")
+    if picture.incision is not None and len(picture.incision) >= 4:
+        chain = BezierChain.from_control_points_flat(picture.incision)
+        curve = chain.evaluate(np.linspace(0.0, chain.segment_count, 64 * chain.segment_count)) * _MM
+        ax.plot(curve[:, 0], curve[:, 1], color=(0.45, 0.02, 0.02), lw=1.5, zorder=4, label="incision")
+    if picture.tool is not None:
+        p0, p1 = (np.asarray(p) * _MM for p in picture.tool)
+        ax.plot([p0[0], p1[0]], [p0[1], p1[1]], color=(0.3, 0.3, 0.35), lw=2.5, alpha=0.7,
+                zorder=5, label="tool axis")
+        ax.plot([p0[0]], [p0[1]], "o", color=(0.3, 0.3, 0.35), ms=4, zorder=5)
+    pts = x[active] if active.any() else x
+    if len(pts):
+        pad = 0.03 * max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1]), 1e-3)
+        ax.set_xlim(pts[:, 0].min() - pad, pts[:, 0].max() + pad)
+        ax.set_ylim(pts[:, 1].min() - pad, pts[:, 1].max() + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.set_title(title or f"t = {picture.time:.3f} s, seen from above")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_series(path, t, series: dict, ylabel: str, title: str = "", marks: dict | None = None) -> Path:
+    """Line plot of ``series`` (label -> (k,) values) over ``t`` (k,) [s]; ``marks`` maps a label
+    to (t, y) points drawn as markers. Returns the path written."""
+    fig = _figure()
+    ax = fig.add_subplot(1, 1, 1)
+    t = np.asarray(t, dtype=np.float64)
+    for label, y in series.items():
+        ax.plot(t, np.asarray(y, dtype=np.float64), label=label, lw=1.2)
+    for label, (mt, my) in (marks or {}).items():
+        ax.plot([mt], [my], "o", label=label)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    if len(series) + len(marks or {}) > 1:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def write_run_plots(out_dir, columns: dict, picture: RunPicture | None, name: str = "") -> list[Path]:
+    """Write preview.png (if ``picture``), tool_force.png and width.png (if the width column
+    exists) into ``out_dir``; returns the paths written."""
+    out = Path(out_dir)
+    written = []
+    if picture is not None:
+        written.append(plot_preview(out / "preview.png", picture,
+                                    f"{name}: final mesh at t = {picture.time:.3f} s".lstrip(": ")))
+    t = columns.get("t")
+    if t is not None and all(c in columns for c in ("tool_fx", "tool_fy", "tool_fz")):
+        f = np.column_stack([columns["tool_fx"], columns["tool_fy"], columns["tool_fz"]])
+        written.append(plot_series(out / "tool_force.png", t,
+                                   {"|F|": np.linalg.norm(f, axis=1), "Fx": f[:, 0], "Fy": f[:, 1],
+                                    "Fz": f[:, 2]}, "tool force [N]", f"{name} tool force".strip()))
+    if t is not None and WIDTH_COLUMN in columns:
+        from .width_curve import analyse_width
+
+        w = np.asarray(columns[WIDTH_COLUMN], dtype=np.float64)
+        marks = {}
+        try:
+            a = analyse_width(t, w)
+        except ValueError:
+            a = None
+        if a is not None:
+            marks["peak"] = (a.peak_time, a.peak_width * _MM)
+            if a.settling_time is not None:
+                marks["settled"] = (a.settling_time, float(np.interp(a.settling_time, t, w)) * _MM)
+        written.append(plot_series(out / "width.png", t, {"width": w * _MM}, "incision width [mm]",
+                                   f"{name} incision width".strip(), marks))
+    return written
