@@ -63,13 +63,15 @@ class ContinuousDetector:
 
     def first_contact(self, positions: wp.array, velocities: wp.array | None, node_flags: wp.array,
                       start: Tool, end: Tool, *, t_start: float = 0.0,
-                      interval: float = 0.0) -> SweptContact | None:
+                      interval: float = 0.0, overlap: float = 0.0) -> SweptContact | None:
         """First contact of the tool moving linearly from ``start`` to ``end`` (radius of ``end``).
 
         positions (n,) vec3 [m] and velocities (n,) vec3 [m/s] on this device at the start;
         nodes move by ``interval * velocity`` over the interval [s] (velocities None or
         interval 0: nodes held still); node_flags (n,) int32 (inactive nodes are skipped).
-        Returns None if no node is reached.
+        ``overlap`` extends the motion linearly past ``end`` by that fraction of the interval,
+        so a contact exactly at the end (where a per-step test and this one may round
+        differently) is found in this interval. Returns None if no node is reached.
         """
         from .kernels.ccd import NO_CONTACT, earliest_contact_nodes, swept_cylinder_first_contact
 
@@ -77,6 +79,11 @@ class ContinuousDetector:
         if n == 0 or end.radius <= 0.0:
             return None
         self._buffers(n)
+        if overlap:
+            grow = float(overlap)
+            end = Tool(end.p0 + grow * (end.p0 - start.p0), end.p1 + grow * (end.p1 - start.p1),
+                       end.radius)
+            interval = float(interval) * (1.0 + grow)
         vel = positions if velocities is None else velocities
         span = 0.0 if velocities is None else float(interval)
         self._earliest.fill_(NO_CONTACT)

@@ -20,7 +20,7 @@ from .classes import NODE_CLASS_COLORS, NodeClass
 from .io import atomic_path
 
 __all__ = ["FinalFrame", "RunPicture", "plot_preview", "plot_series", "write_run_plots",
-           "WIDTH_COLUMN"]
+           "new_figure", "save_figure", "WIDTH_COLUMN"]
 
 WIDTH_COLUMN = "incision_width_m"
 """Time-series column holding the incision width [m]."""
@@ -66,7 +66,7 @@ class FinalFrame:
             tool=None if pose is None else (pose.p0.copy(), pose.p1.copy()))
 
 
-def _figure(width=6.4, height=4.8):
+def new_figure(width=6.4, height=4.8):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -75,7 +75,8 @@ def _figure(width=6.4, height=4.8):
     return fig
 
 
-def _save(fig, path) -> Path:
+def save_figure(fig, path) -> Path:
+    """Write ``fig`` as PNG to ``path`` atomically."""
     path = Path(path)
     with atomic_path(path, suffix=".png") as tmp:
         fig.savefig(tmp, format="png")
@@ -90,7 +91,7 @@ def plot_preview(path, picture: RunPicture, title: str = "") -> Path:
 
     x = np.asarray(picture.positions, dtype=np.float64) * _MM
     tri = np.asarray(picture.triangles, dtype=np.int64).reshape(-1, 3)
-    fig = _figure(7.0, 5.6)
+    fig = new_figure(7.0, 5.6)
     ax = fig.add_subplot(1, 1, 1)
     if len(tri):
         ax.add_collection(PolyCollection(x[tri][:, :, :2], facecolors=[NODE_CLASS_COLORS[NodeClass.NORMAL]],
@@ -125,13 +126,13 @@ def plot_preview(path, picture: RunPicture, title: str = "") -> Path:
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_series(path, t, series: dict, ylabel: str, title: str = "", marks: dict | None = None) -> Path:
     """Line plot of ``series`` (label -> (k,) values) over ``t`` (k,) [s]; ``marks`` maps a label
     to (t, y) points drawn as markers. Returns the path written."""
-    fig = _figure()
+    fig = new_figure()
     ax = fig.add_subplot(1, 1, 1)
     t = np.asarray(t, dtype=np.float64)
     for label, y in series.items():
@@ -145,7 +146,7 @@ def plot_series(path, t, series: dict, ylabel: str, title: str = "", marks: dict
     if len(series) + len(marks or {}) > 1:
         ax.legend(fontsize=8)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def write_run_plots(out_dir, columns: dict, picture: RunPicture | None, name: str = "") -> list[Path]:

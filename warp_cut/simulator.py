@@ -240,7 +240,7 @@ class Simulator:
             self._ccd = ContinuousDetector(self.device)
         hit = self._ccd.first_contact(self._state.positions, self._state.velocities,
                                       self.device_model.node_flags, start, end,
-                                      t_start=self.time, interval=self.dt)
+                                      t_start=self.time, interval=self.dt, overlap=1e-3)
         if hit is not None:
             self.first_contact_time_exact = hit.time
             self.first_contact_point_exact = hit.point
