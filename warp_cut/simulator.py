@@ -62,7 +62,7 @@ class Simulator:
             raise InputError(f"gravity must be three finite numbers [m/s^2], got {gravity!r}")
         self.residual_stress = residual_stress
         self.collision = collision
-        extent = np.ptp(model.points, axis=0) if model.node_count else np.zeros(3)
+        extent = np.ptp(model.points[model.active], axis=0) if model.active.any() else np.zeros(3)
         self.max_displacement = float(max_displacement or max(1.0, 1000.0 * np.linalg.norm(extent)))
         self._dt_request, self._substeps_request = dt, substeps
         self._state = State(model.points, device=device)

@@ -69,7 +69,7 @@ def node_stiffness_sums(model, positions: np.ndarray | None = None) -> np.ndarra
 def stable_time_step(model, positions: np.ndarray | None = None, *,
                      include_damping: bool = True, active: np.ndarray | None = None) -> StepLimit:
     """The stable step of semi-implicit Euler for ``model`` at ``positions`` (default: rest)."""
-    free = ~model.pinned if active is None else (~model.pinned & active)
+    free = ~model.pinned & (model.active if active is None else active)
     sums = node_stiffness_sums(model, positions)
     candidates = free & (sums > 0)
     if not np.any(candidates):
