@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "spring_geometric_factor"]
+__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "spring_geometric_factor", "RowSums"]
 
 
 @dataclass(frozen=True)
@@ -67,10 +67,11 @@ def node_stiffness_sums(model, positions: np.ndarray | None = None) -> np.ndarra
 
 
 def stable_time_step(model, positions: np.ndarray | None = None, *,
-                     include_damping: bool = True, active: np.ndarray | None = None) -> StepLimit:
-    """The stable step of semi-implicit Euler for ``model`` at ``positions`` (default: rest)."""
-    free = ~model.pinned & (model.active if active is None else active)
-    sums = node_stiffness_sums(model, positions)
+                     include_damping: bool = True, sums: np.ndarray | None = None) -> StepLimit:
+    """The stable step of semi-implicit Euler for ``model`` at ``positions`` (default: rest).
+    ``sums``: precomputed Gershgorin row sums (e.g. kept up to date by a RowSums)."""
+    free = ~model.pinned & model.active
+    sums = node_stiffness_sums(model, positions) if sums is None else sums
     candidates = free & (sums > 0)
     if not np.any(candidates):
         return StepLimit(float("inf"), float("inf"), -1, 0.0)
@@ -84,3 +85,37 @@ def stable_time_step(model, positions: np.ndarray | None = None, *,
     c = float(np.min(model.damping[free] / model.masses[free]))
     damped = (c + np.sqrt(c * c + 4.0 * w2)) / w2
     return StepLimit(float(damped), float(undamped), node, float(np.sqrt(w2)))
+
+
+class RowSums:
+    """Gershgorin row sums kept up to date across topology edits at the cost of the nodes an
+    edit touches (a full ``node_stiffness_sums`` is O(springs))."""
+
+    def __init__(self, model, positions: np.ndarray | None = None):
+        self.model = model
+        self.sums = node_stiffness_sums(model, positions)
+
+    def update(self, nodes, editor, positions) -> None:
+        """Recompute the rows of ``nodes`` from the editor's adjacency; ``positions`` is
+        indexable by node ([m]) for the geometric factor."""
+        model = self.model
+        if model.node_count > len(self.sums):
+            self.sums = np.concatenate([self.sums, np.zeros(model.node_count - len(self.sums))])
+        springs, links = model.spring_table, model.link_table
+        pairs, rest, k = springs.column("pairs"), springs.column("rest_length"), springs.column("stiffness")
+        lpairs, lforce, leps = links.column("pairs"), links.column("force"), links.column("smoothing")
+        pinned = model.pinned
+        for v in nodes:
+            total = 0.0
+            if model.active[v]:
+                for slot in editor.node_springs[v]:
+                    i, j = pairs[slot]
+                    other = j if i == v else i
+                    length = float(np.linalg.norm(positions[int(j)] - positions[int(i)]))
+                    g = float(spring_geometric_factor([length], [rest[slot]])[0])
+                    total += k[slot] * g * (1.0 + (not pinned[other]))
+                for slot in editor.node_links[v]:
+                    i, j = lpairs[slot]
+                    other = j if i == v else i
+                    total += lforce[slot] / leps[slot] * (1.0 + (not pinned[other]))
+            self.sums[v] = total
