@@ -45,7 +45,7 @@ class CutSettings:
     interval: time between cut events [s] (default 1/60, one per rendered frame).
     force_threshold: cutting starts once |tool force| >= this [N] (default 0: any contact).
     spacing: lip station spacing [m] (default: median spring rest length).
-    tolerance: Bezier fit tolerance [m] (default 0.05 x spacing).
+    tolerance: Bezier fit tolerance [m] (default 0.1 x spacing).
     lip_offset: half the initial slit width [m] (default 0.25 x sweep radius).
     """
 
@@ -144,7 +144,7 @@ class Cutter:
         r = s.sweep_radius or tool.radius
         self.current = Incision(point, normal, spacing=self.spacing,
                                 lip_offset=s.lip_offset or 0.25 * r,
-                                tolerance=s.tolerance or 0.05 * self.spacing)
+                                tolerance=s.tolerance or 0.1 * self.spacing)
         self.incisions.append(self.current)
 
     @staticmethod
@@ -270,6 +270,25 @@ class Cutter:
             d = np.linalg.norm(x[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(1)
             best = np.minimum(best, d)
         return float(best.max())
+
+    def metrics(self) -> dict:
+        """The cut's entries of metrics.json: ``cut``, ``incision`` and ``latency_ms``."""
+        length = sum(inc.length for inc in self.incisions)
+        cut = {k: v for k, v in self.totals.items()}
+        cut["incisions"] = len(self.incisions)
+        cut["unfilled_holes"] = self.unfilled_holes
+        return {
+            "cut": cut,
+            "incision": {"length_m": length, "max_deviation_m": self.lip_deviation(),
+                         "width_m": self.incision_width()},
+            "latency_ms": self.latency_summary(),
+        }
+
+    def live_new_triangles(self) -> np.ndarray:
+        """Rows (into ``model.triangles``) of the live triangles this cutter made."""
+        table = self.sim.model.triangle_table
+        live = table.live_slots()
+        return np.flatnonzero(np.isin(live, np.fromiter(self.new_triangles, dtype=np.int64)))
 
     def latency_summary(self) -> dict:
         """p50 / p99 / max latency per stage [ms] over the cut events."""

@@ -25,6 +25,23 @@ __all__ = ["Incision"]
 _SAMPLES_PER_SEGMENT = 48
 
 
+def _polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance (m,) [m] of points (m, 3) to a polyline (k, 3)."""
+    a, b = poly[:-1], poly[1:]
+    ab = b - a
+    denom = np.maximum((ab * ab).sum(axis=1), 1e-300)
+    t = np.clip(((points[:, None, :] - a[None]) * ab[None]).sum(axis=2) / denom[None], 0.0, 1.0)
+    return np.linalg.norm(points[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=2).min(axis=1)
+
+
+def _max_distance(points: np.ndarray, curve: BezierChain) -> float:
+    """Largest distance [m] of points to a curve, through a dense polyline of the curve
+    (within ~1e-4 of the chord length of the true distance)."""
+    s = curve.segment_count
+    dense = curve.evaluate(np.linspace(0.0, s, 64 * s + 1))
+    return float(_polyline_distance(points, dense).max())
+
+
 class Incision:
     """One continuous cut (one contact episode of the tool).
 
@@ -42,6 +59,8 @@ class Incision:
         self.lip_offset = float(lip_offset)
         self.tolerance = float(tolerance)
         self.curve: BezierChain | None = None
+        self._frozen = np.zeros((0, 4, 3))
+        self._tail_start = 0
         self._poly = np.repeat(self.path[0][None], 2, axis=0)
         self._cum = np.zeros(2)
         # interior stations: arc-length u and the node of each lip (-1: none yet)
@@ -64,11 +83,43 @@ class Incision:
         if np.linalg.norm(point - self.path[-1]) < min_step:
             return False
         self.path.append(point)
-        self.curve = fit_chain(np.array(self.path), self.tolerance)
+        self.curve = self._refit()
         u = np.linspace(0.0, self.curve.segment_count, _SAMPLES_PER_SEGMENT * self.curve.segment_count + 1)
         self._poly = self.curve.evaluate(u)
         self._cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self._poly, axis=0), axis=1))])
         return True
+
+    def _fit_from(self, start: int, stop: int) -> np.ndarray | None:
+        """Controls fitting path[start:stop] and joining the frozen part C1 (None if the
+        joined fit misses the tolerance)."""
+        pts = np.array(self.path[start:stop])
+        ctrl = fit_chain(pts, self.tolerance).controls.copy()
+        if len(self._frozen):
+            last = self._frozen[-1]
+            ctrl[0, 1] = ctrl[0, 0] + (last[3] - last[2])  # equal derivatives at the join
+            if len(pts) > 2 and _max_distance(pts, BezierChain(ctrl)) > self.tolerance:
+                return None
+        return ctrl
+
+    def _refit(self) -> BezierChain:
+        """Refit the tail of the path only: once the unfrozen tail spans more than eight
+        station spacings, all but its last four are frozen, so the cost of an extension does
+        not grow with the incision. Falls back to one fit of the whole path if a C1 join
+        cannot meet the tolerance."""
+        n = len(self.path)
+        tail = np.array(self.path[self._tail_start:])
+        chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tail, axis=0), axis=1))])
+        if chord[-1] > 8.0 * self.spacing:
+            k = self._tail_start + int(np.searchsorted(chord, chord[-1] - 4.0 * self.spacing))
+            piece = self._fit_from(self._tail_start, k + 1)
+            if piece is not None:
+                self._frozen = np.concatenate([self._frozen, piece])
+                self._tail_start = k
+        ctrl = self._fit_from(self._tail_start, n)
+        if ctrl is None:
+            self._frozen, self._tail_start = np.zeros((0, 4, 3)), 0
+            ctrl = self._fit_from(0, n)
+        return BezierChain(np.concatenate([self._frozen, ctrl]))
 
     def point_at(self, u) -> np.ndarray:
         """Curve points (m, 3) [m] at arc lengths u (m,) [m] (piecewise-linear between dense samples)."""

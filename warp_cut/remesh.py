@@ -19,7 +19,7 @@ import numpy as np
 
 from .classes import NodeClass, SpringClass
 
-__all__ = ["hole_chains", "zip_strip", "fill_hole"]
+__all__ = ["hole_chains", "zip_strip", "ear_clip", "fill_hole"]
 
 
 def hole_chains(editor, removed_corners) -> list[list[int]]:
@@ -98,6 +98,69 @@ def zip_strip(border, lips, positions, normal) -> list[tuple[int, int, int]]:
             i += 1
         else:
             j += 1
+    return tris
+
+
+def _polygon(border, lips) -> list[int]:
+    """The hole's boundary cycle: along the border chain, then back along the lips (shared end
+    nodes once)."""
+    cycle = list(border) + list(reversed(lips))
+    out = []
+    for v in cycle:
+        if not out or out[-1] != v:
+            out.append(v)
+    while len(out) > 1 and out[0] == out[-1]:
+        out.pop()
+    return out
+
+
+def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
+    """Triangulate a simple polygon (node cycle, counter-clockwise about ``normal``) by cutting
+    ears, best (largest smallest angle) first; [] if the polygon is not simple."""
+    n = np.asarray(normal, dtype=np.float64)
+    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    pts = positions[polygon]
+    xy = {v: (float(p @ e1), float(p @ e2)) for v, p in zip(polygon, pts)}
+    if len(set(polygon)) != len(polygon):
+        return []
+    ring = list(polygon)
+    tris = []
+
+    def cross(a, b, c):
+        return (xy[b][0] - xy[a][0]) * (xy[c][1] - xy[a][1]) - (xy[b][1] - xy[a][1]) * (xy[c][0] - xy[a][0])
+
+    def min_angle(a, b, c):
+        p = [np.array(xy[v]) for v in (a, b, c)]
+        angles = []
+        for k in range(3):
+            u, w = p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]
+            angles.append(np.arctan2(abs(u[0] * w[1] - u[1] * w[0]), u @ w))
+        return min(angles)
+
+    while len(ring) > 3:
+        best, best_q = None, -1.0
+        for k in range(len(ring)):
+            a, b, c = ring[k - 1], ring[k], ring[(k + 1) % len(ring)]
+            if cross(a, b, c) <= 0:
+                continue  # reflex or flat corner
+            inside = any(cross(a, b, v) >= 0 and cross(b, c, v) >= 0 and cross(c, a, v) >= 0
+                         for v in ring if v not in (a, b, c))
+            if inside:
+                continue
+            q = min_angle(a, b, c)
+            if q > best_q:
+                best, best_q = k, q
+        if best is None:
+            return []
+        a, b, c = ring[best - 1], ring[best], ring[(best + 1) % len(ring)]
+        tris.append((a, b, c))
+        ring.pop(best)
+    if len(ring) == 3 and cross(*ring) > 0:
+        tris.append(tuple(ring))
+    else:
+        return []
     return tris
 
 
@@ -183,8 +246,11 @@ def fill_hole(editor, incision, removed_corners, positions) -> dict:
             lips.append(node)
         strip = zip_strip(chain, lips, positions, incision.normal)
         if not _acceptable(strip, editor, positions, incision.normal):
-            skipped += 1  # leave this hole open rather than make an invalid mesh
-            continue
+            # displaced nodes can make the strip fold over: triangulate the hole polygon itself
+            strip = ear_clip(_polygon(chain, lips), positions, incision.normal)
+            if not _acceptable(strip, editor, positions, incision.normal):
+                skipped += 1  # leave this hole open rather than make an invalid mesh
+                continue
         for tri in strip:
             triangles.append(tri)
             editor.add_triangle(tri, positions, SpringClass.RED)

@@ -10,10 +10,16 @@ With every neighbour free, R_i = 2 S_i (S_i the stiffness sum at node i), so
 
     h_undamped = min_i sqrt(2 m_i / S_i)
 
-and springs to pinned nodes only make it larger. It is always safe. With the implicit damping of the integrator (c = D / m), a mode of frequency
-omega is stable for ``h < (c + sqrt(c^2 + 4 omega^2)) / omega^2``, which grows with c; the
-damped limit uses the smallest c and the largest omega (mass-proportional damping is exact
-here, other damping conservative in practice).
+is always safe; springs to pinned nodes only make it larger. With the implicit damping of the integrator
+(c = D / m), a mode of frequency omega is stable for ``h < (c + sqrt(c^2 + 4 omega^2)) / omega^2``,
+which grows with c. The damped limit takes this per node, with c_i = D_i / m_i and
+omega_i^2 = R_i / m_i, and the smallest over the nodes:
+
+    h_damped = min_i (D_i + sqrt(D_i^2 + 4 R_i m_i)) / R_i
+
+It is exact for mass-proportional damping and tends to 2 D / R_i for heavily damped light
+nodes, whatever their mass (the step of the overdamped motion x' = -K x / D); the tests check
+it against the eigenvalues of the iteration.
 """
 
 from __future__ import annotations
@@ -82,9 +88,11 @@ def stable_time_step(model, positions: np.ndarray | None = None, *,
     undamped = 2.0 / np.sqrt(w2)
     if not include_damping:
         return StepLimit(undamped, undamped, node, float(np.sqrt(w2)))
-    c = float(np.min(model.damping[free] / model.masses[free]))
-    damped = (c + np.sqrt(c * c + 4.0 * w2)) / w2
-    return StepLimit(float(damped), float(undamped), node, float(np.sqrt(w2)))
+    R, m, D = sums[candidates], model.masses[candidates], model.damping[candidates]
+    per_node = (D + np.sqrt(D * D + 4.0 * R * m)) / R
+    k = int(np.argmin(per_node))
+    node = int(np.flatnonzero(candidates)[k])
+    return StepLimit(float(per_node[k]), float(undamped), node, float(np.sqrt(w2)))
 
 
 class RowSums:
