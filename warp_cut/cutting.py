@@ -116,9 +116,10 @@ class Cutter:
 
     # ----------------------------------------------------------------- driving
     def after_step(self, tool: Tool | None) -> None:
+        """Advance the cut after a simulation step with the tool pose ``tool`` (None: no tool)."""
         sim = self.sim
         if tool is None or tool.radius <= 0:
-            self.current = None
+            self.end_incision()
             return
         if sim.time - self._last_event < self.settings.interval - 1e-12:
             return
@@ -126,26 +127,34 @@ class Cutter:
         if self.current is None:
             pushing = np.linalg.norm(sim.tool_force) >= self.settings.force_threshold
             if sim.contact_count > 0 and pushing and sim.contact_centroid is not None:
-                self._start(tool)
+                normal = self._surface_normal(sim.contact_centroid)
+                point = self._axis_crossing(tool, sim.contact_centroid, normal)
+                if point is not None:
+                    self.start_incision(point, normal, self.settings.sweep_radius or tool.radius)
             return
         point = self._axis_crossing(tool, self.current.path[0], self.current.normal)
         if point is None:
-            self.current = None  # the tool left the surface: this incision is complete
+            self.end_incision()  # the tool left the surface: this incision is complete
             return
-        self._event(tool, point)
+        self.extend_incision(point)
 
-    def _start(self, tool: Tool) -> None:
-        centroid = self.sim.contact_centroid
-        normal = self._surface_normal(centroid)
-        point = self._axis_crossing(tool, centroid, normal)
-        if point is None:
-            return
+    def start_incision(self, point, normal, sweep_radius: float) -> Incision:
+        """Begin a new incision at ``point`` [m] on the surface with unit ``normal``; the swept
+        circle has radius ``sweep_radius`` [m]. (``after_step`` calls this at first contact;
+        a haptic loop or a test may call it directly.)"""
+        if not (np.isfinite(sweep_radius) and sweep_radius > 0):
+            raise InputError(f"sweep radius must be > 0 m, got {sweep_radius}")
         s = self.settings
-        r = s.sweep_radius or tool.radius
         self.current = Incision(point, normal, spacing=self.spacing,
-                                lip_offset=s.lip_offset or 0.25 * r,
+                                lip_offset=s.lip_offset or 0.25 * sweep_radius,
                                 tolerance=s.tolerance or 0.1 * self.spacing)
+        self.current.sweep_radius = float(sweep_radius)
         self.incisions.append(self.current)
+        return self.current
+
+    def end_incision(self) -> None:
+        """Finish the current incision (the next cut starts a new one)."""
+        self.current = None
 
     @staticmethod
     def _axis_crossing(tool: Tool, origin, normal) -> np.ndarray | None:
@@ -175,11 +184,16 @@ class Cutter:
         return self.sim.state.positions.numpy()[: self.sim.model.node_count]
 
     # ----------------------------------------------------------------- one event
-    def _event(self, tool: Tool, point: np.ndarray) -> None:
+    def extend_incision(self, point) -> None:
+        """One cut event: sweep from the incision's last contact point to ``point`` [m]
+        (Stages 1-3), then mirror the edit on the device."""
         from .kernels.cutting import capsule_node_hits, capsule_spring_hits
 
         sim, inc, editor = self.sim, self.current, self.editor
-        r = self.settings.sweep_radius or tool.radius
+        if inc is None:
+            raise InputError("no incision in progress: call start_incision first")
+        point = np.asarray(point, dtype=np.float64)
+        r = inc.sweep_radius
         a = inc.path[-1]
         if np.linalg.norm(point - a) < 0.1 * self.spacing:
             return  # the tool has not moved enough to extend the incision

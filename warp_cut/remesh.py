@@ -233,7 +233,10 @@ def fill_hole(editor, incision, removed_corners, positions) -> dict:
         if not ordered:
             continue
         lips = []
+        made_here: dict[tuple, int] = {}
         for node, side, station in ordered:
+            if node < 0 and (station, side) in made_here:
+                node = made_here[(station, side)]  # a closed loop meets the start node twice
             if node < 0:
                 u = incision.station_u[station] if station >= 0 else (0.0 if station == -1 else incision.length)
                 point = incision.lip_position(u, side)
@@ -243,6 +246,7 @@ def fill_hole(editor, incision, removed_corners, positions) -> dict:
                 lip_slots = [(node if (st == station and sd == side) else n, th, sd, st)
                              for n, th, sd, st in lip_slots]
                 created.append(node)
+                made_here[(station, side)] = node
             lips.append(node)
         strip = zip_strip(chain, lips, positions, incision.normal)
         if not _acceptable(strip, editor, positions, incision.normal):

@@ -24,7 +24,7 @@ from .solver import INTEGRATORS
 __all__ = ["Scene", "load_scene", "parse_scene", "apply_overrides", "bundled_scene_path",
            "DEFAULT_SCENE"]
 
-DEFAULT_SCENE = "skin_press"
+DEFAULT_SCENE = "straight_incision"
 """Bundled scene run by ``warp-cut run`` without a scene argument."""
 
 _SCHEMA: dict[str, set[str]] = {

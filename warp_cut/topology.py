@@ -55,6 +55,8 @@ class EditReport:
     new_triangles: list = field(default_factory=list)
     removed_fragments: list = field(default_factory=list)
     """Nodes deleted because the edit left them without any triangle."""
+    stray_springs: list = field(default_factory=list)
+    """Springs deleted because the edit left them on no triangle (inside the grey area)."""
 
 
 class TopologyEditor:
@@ -229,8 +231,16 @@ class TopologyEditor:
 
     # ------------------------------------------------------------------ finish
     def finish(self, *, lumped: bool = True) -> EditReport:
-        """Remove fragments, recompute the lumped masses of touched nodes, bump the version."""
+        """Remove springs left on no triangle and nodes left without any (fragments), recompute
+    the lumped masses of touched nodes, bump the version."""
         model = self.model
+        # a spring no triangle uses any more lay inside the grey area: it goes too
+        pairs = model.spring_table.column("pairs")
+        stray = {slot for v in self._touched for slot in self.node_springs[v]
+                 if not self.triangles_with_edge(*(int(u) for u in pairs[slot]))}
+        if stray:
+            self.delete_springs(sorted(stray), residual=False)
+            self.report.stray_springs.extend(sorted(stray))
         fragments = [v for v in self._touched
                      if model.active[v] and not self.node_triangles[v]]
         if fragments:
