@@ -24,13 +24,15 @@ def test_run_default_scene_writes_metrics_and_timeseries(tmp_path):
     assert metrics["finite"] is True and metrics["sim_time_s"] == pytest.approx(0.1)
     assert metrics["steps"] * metrics["dt"] == pytest.approx(0.1)
     rows = list(csv.reader((out / "timeseries.csv").open()))
-    assert rows[0] == TIMESERIES_COLUMNS and len(rows) == 1 + 1 + round(0.1 * 60)
+    assert rows[0] == TIMESERIES_COLUMNS + ["incision_width_m"]  # the default scene cuts
+    assert len(rows) == 1 + 1 + round(0.1 * 60)
+    assert (out / "final_mesh.ply").is_file()
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary left
 
 
 def test_press_scene_makes_contact_and_force(tmp_path):
     out = tmp_path / "press"
-    assert main(["run", "--out", str(out), "--quiet", "--set", "duration=0.5"]) == 0
+    assert main(["run", "skin_press", "--out", str(out), "--quiet", "--set", "duration=0.5"]) == 0
     m = json.loads((out / "metrics.json").read_text())
     # the tip moves from z = 5 mm to z = -4 mm over 0.5 s; it reaches the sheet (which sags
     # slightly under gravity) shortly after 0.5 * 5/9 s
@@ -49,7 +51,7 @@ def test_bad_input_exit_2_and_nothing_written(tmp_path, capsys):
 
 def test_unstable_exit_3_and_nothing_written(tmp_path, capsys):
     out = tmp_path / "boom"
-    code = main(["run", "--out", str(out), "--quiet", "--set", "physics.collision=false",
+    code = main(["run", "skin_press", "--out", str(out), "--quiet", "--set", "physics.collision=false",
                  "--set", "material.damping=0", "--set", "solver.substeps=1",
                  "--set", "solver.dt=0.01", "--set", "duration=0.5"] + FAST[2:])
     assert code == 3

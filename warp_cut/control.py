@@ -59,11 +59,21 @@ class ToolPath:
 
     def endpoints_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(p0, p1) [m] at time t [s]."""
-        p0 = np.array([np.interp(t, self.times, self.p0[:, c]) for c in range(3)])
-        p1 = np.array([np.interp(t, self.times, self.p1[:, c]) for c in range(3)])
-        return p0, p1
+        times = self.times
+        if t <= times[0]:
+            return self.p0[0].copy(), self.p1[0].copy()
+        if t >= times[-1]:
+            return self.p0[-1].copy(), self.p1[-1].copy()
+        k = int(np.searchsorted(times, t, side="right")) - 1
+        w = (t - times[k]) / (times[k + 1] - times[k])
+        return ((1.0 - w) * self.p0[k] + w * self.p0[k + 1],
+                (1.0 - w) * self.p1[k] + w * self.p1[k + 1])
 
     def pose_at(self, t: float) -> Tool:
-        """The Tool at time t [s]."""
+        """The Tool at time t [s] (keyframes were validated once, so no checks here)."""
         p0, p1 = self.endpoints_at(t)
-        return Tool(p0, p1, self.radius)
+        tool = object.__new__(Tool)
+        object.__setattr__(tool, "p0", p0)
+        object.__setattr__(tool, "p1", p1)
+        object.__setattr__(tool, "radius", self.radius)
+        return tool

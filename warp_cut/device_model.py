@@ -1,6 +1,9 @@
 """DeviceModel: the device mirror of a TissueModel (float32 / int32 Warp arrays).
 
-Derived from the model in one place, so no component keeps its own copy of the topology.
+Derived from the model's slot tables in one place, so no component keeps its own copy of the
+topology. Arrays are allocated at the tables' capacity; kernels run over the used slots
+(``*_count``) and skip dead ones. After an edit, ``sync`` copies only the changed slots (a
+scatter launch per column), unless a table outgrew its capacity, which reallocates.
 """
 
 from __future__ import annotations
@@ -13,34 +16,87 @@ from .kernels import NODE_ACTIVE, NODE_PINNED
 __all__ = ["DeviceModel"]
 
 
-class DeviceModel:
-    """Device arrays of a model (counts follow Newton's ``*_count`` naming).
+def _node_flags(model, slots) -> np.ndarray:
+    table = model.node_table
+    flags = np.where(table.alive_buffer()[slots], NODE_ACTIVE, 0).astype(np.int32)
+    flags[table.buffer("pinned")[slots]] |= NODE_PINNED
+    return flags
 
-    rest_positions: (node_count,) vec3 [m]; node_mass (node_count,) float32 [kg];
-    node_damping (node_count,) float32 [N s/m]; node_flags (node_count,) int32;
-    spring_indices (2 * spring_count,) int32; spring_rest_length [m] and spring_stiffness [N/m]
-    (spring_count,) float32; link_indices (2 * link_count,) int32; link_force [N] and
-    link_smoothing [m] (link_count,) float32.
+
+def _columns(model):
+    """(device attribute, table, host values for slots, warp dtype) of every mirrored column."""
+    n, s, l = model.node_table, model.spring_table, model.link_table
+    return [
+        ("rest_positions", n, lambda idx: n.buffer("points")[idx], wp.vec3),
+        ("node_mass", n, lambda idx: n.buffer("masses")[idx], wp.float32),
+        ("node_damping", n, lambda idx: n.buffer("damping")[idx], wp.float32),
+        ("node_flags", n, lambda idx: _node_flags(model, idx), wp.int32),
+        ("spring_indices", s, lambda idx: s.buffer("pairs")[idx], wp.int32),
+        ("spring_rest_length", s, lambda idx: s.buffer("rest_length")[idx], wp.float32),
+        ("spring_stiffness", s, lambda idx: s.buffer("stiffness")[idx], wp.float32),
+        ("link_indices", l, lambda idx: l.buffer("pairs")[idx], wp.int32),
+        ("link_force", l, lambda idx: l.buffer("force")[idx], wp.float32),
+        ("link_smoothing", l, lambda idx: l.buffer("smoothing")[idx], wp.float32),
+    ]
+
+
+def _to_warp(values: np.ndarray, dtype, device) -> wp.array:
+    if dtype is wp.vec3:
+        return wp.array(np.asarray(values, np.float32).reshape(-1, 3), dtype=wp.vec3, device=device)
+    np_type = np.float32 if dtype is wp.float32 else np.int32
+    return wp.array(np.asarray(values, np_type).ravel(), dtype=dtype, device=device)
+
+
+class DeviceModel:
+    """Device arrays of a model (counts follow Newton's ``*_count`` naming; slots, dead included).
+
+    rest_positions (node capacity,) vec3 [m]; node_mass float32 [kg]; node_damping float32
+    [N s/m]; node_flags int32 (NODE_ACTIVE | NODE_PINNED); spring_indices (2 * spring capacity,)
+    int32, -1 for dead slots; spring_rest_length [m] and spring_stiffness [N/m] float32;
+    link_indices (2 * link capacity,) int32; link_force [N] and link_smoothing [m] float32.
     """
 
-    def __init__(self, model, device: str = "cpu", active: np.ndarray | None = None):
+    def __init__(self, model, device: str = "cpu"):
         self.device = device
-        self.node_count = model.node_count
-        self.spring_count = model.spring_count
-        self.link_count = model.link_count
-        flags = np.full(model.node_count, NODE_ACTIVE, dtype=np.int32)
-        if active is not None:
-            flags[~active] = 0
-        flags[model.pinned] |= NODE_PINNED
-        f32 = lambda a: wp.array(np.asarray(a, dtype=np.float32), dtype=wp.float32, device=device)
-        i32 = lambda a: wp.array(np.asarray(a, dtype=np.int32).ravel(), dtype=wp.int32, device=device)
-        self.rest_positions = wp.array(model.points.astype(np.float32), dtype=wp.vec3, device=device)
-        self.node_mass = f32(model.masses)
-        self.node_damping = f32(model.damping)
-        self.node_flags = i32(flags)
-        self.spring_indices = i32(model.springs)
-        self.spring_rest_length = f32(model.rest_lengths)
-        self.spring_stiffness = f32(model.stiffness)
-        self.link_indices = i32(model.links)
-        self.link_force = f32(model.link_force)
-        self.link_smoothing = f32(model.link_smoothing)
+        self.model = model
+        self._allocate()
+
+    def _allocate(self) -> None:
+        model = self.model
+        for name, table, values, dtype in _columns(model):
+            table.take_dirty()
+            setattr(self, name, _to_warp(values(np.arange(table.capacity)), dtype, self.device))
+        self._counts()
+
+    def _counts(self) -> None:
+        self.node_count = self.model.node_table.count
+        self.spring_count = self.model.spring_table.count
+        self.link_count = self.model.link_table.count
+
+    def sync(self) -> bool:
+        """Copy the model's changed slots to the device. Returns True if arrays were
+        reallocated (a table outgrew its capacity): solvers holding them must rebind."""
+        from .kernels.scatter import scatter_float32, scatter_int32, scatter_vec3
+
+        model = self.model
+        tables = {id(t): t for _, t, _, _ in _columns(model)}
+        changes = {key: t.take_dirty() for key, t in tables.items()}
+        if any(grown for _, grown in changes.values()):
+            self._allocate()
+            return True
+        kernels = {wp.vec3: scatter_vec3, wp.float32: scatter_float32, wp.int32: scatter_int32}
+        for name, table, values, dtype in _columns(model):
+            slots = changes[id(table)][0]
+            if not len(slots):
+                continue
+            dest = getattr(self, name)
+            width = 2 if name.endswith("_indices") else 1
+            if width == 2:  # pairs are stored flat: slot s owns entries 2s and 2s + 1
+                idx = np.stack([2 * slots, 2 * slots + 1], axis=1).ravel()
+            else:
+                idx = slots
+            src = _to_warp(values(slots), dtype, self.device)
+            wp.launch(kernels[dtype], dim=len(idx), device=self.device,
+                      inputs=[dest, wp.array(idx.astype(np.int32), dtype=wp.int32, device=self.device), src])
+        self._counts()
+        return False

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_path", "write_json", "write_csv"]
+__all__ = ["atomic_path", "write_json", "write_csv", "write_ply"]
 
 _UMASK = os.umask(0o022)
 os.umask(_UMASK)
@@ -59,9 +59,28 @@ def write_json(path, data: dict) -> None:
 
 
 def write_csv(path, header: list[str], rows) -> None:
-    """Write rows (iterables matching ``header``) as CSV."""
+    """Write rows (iterables matching ``header``) as CSV; a NaN float (no value, e.g. no
+    incision yet) is written as an empty cell."""
+
+    def cell(v):
+        if isinstance(v, float):
+            return "" if np.isnan(v) else f"{v:.9g}"
+        return v
+
     with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
         writer.writerow(header)
         for row in rows:
-            writer.writerow([f"{v:.9g}" if isinstance(v, float) else v for v in row])
+            writer.writerow([cell(v) for v in row])
+
+
+def write_ply(path, points, triangles, node_class=None) -> None:
+    """Write a triangle surface as binary PLY through trimesh; ``node_class`` (k,) becomes the
+    vertex property ``node_class``."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(np.asarray(points), np.asarray(triangles), process=False)
+    if node_class is not None:
+        mesh.vertex_attributes["node_class"] = np.asarray(node_class, dtype=np.int8)
+    with atomic_path(path) as tmp:
+        mesh.export(tmp, file_type="ply")

@@ -28,13 +28,20 @@ def triangle_edges(triangles: np.ndarray) -> np.ndarray:
     return np.unique(edges, axis=0) if len(edges) else np.zeros((0, 2), np.int64)
 
 
+def _areas(points, triangles) -> np.ndarray:
+    pts = np.asarray(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(tri) == 0:
+        return np.zeros(0)
+    a = pts[tri]
+    return 0.5 * np.linalg.norm(np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]), axis=1)
+
+
 def lumped_masses(points: np.ndarray, triangles: np.ndarray, areal_density: float) -> np.ndarray:
     """Lumped node masses (n,) [kg]: areal_density [kg/m^2] x one third of the adjacent areas."""
-    pts = np.asarray(points, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
-    a = pts[tri]
-    area = 0.5 * np.linalg.norm(np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]), axis=1)
-    masses = np.zeros(len(pts))
+    area = _areas(points, tri)
+    masses = np.zeros(len(points))
     np.add.at(masses, tri.ravel(), np.repeat(area * areal_density / 3.0, 3))
     return masses
 
@@ -69,43 +76,106 @@ def _per_item(value, count: int, name: str, lower_open: bool = False) -> np.ndar
 class TissueModel:
     """A mass-spring tissue: nodes, springs, triangles, residual links, material.
 
-    Attributes (numpy, host):
+    Storage is slot tables (``warp_cut.slots.SlotTable``) so that a cut edits in place:
+    a deleted node keeps its slot (``active`` False) and node indices never change; deleted
+    springs, triangles and links leave dead slots that the kernels skip.
+
+    Node attributes, over all node slots (node_count = slots, deleted ones included):
         points: rest positions [m], (node_count, 3) float64.
         masses: lumped node masses [kg], (node_count,) float64, > 0.
-        pinned: boundary-condition flags, (node_count,) bool; pinned nodes never move.
         damping: per-node damping D [N s/m], (node_count,) float64.
-        springs: node pairs (spring_count, 2) int64, i < j, unique.
-        rest_lengths: L0 [m], (spring_count,) float64.
-        stiffness: K [N/m], (spring_count,) float64.
-        triangles: surface triangles (triangle_count, 3) int64, CCW seen from the outside.
-        links: residual-stress link pairs (link_count, 2) int64.
-        link_force: sigma_r * A [N], (link_count,) float64.
-        link_smoothing: regularisation length [m], (link_count,) float64.
-        material: the Material the model was built with.
-        active: (node_count,) bool; False for node slots deleted by a cut (kept so indices of
-            the survivors do not change; no spring, link or triangle refers to them).
-        node_class: (node_count,) int8 NodeClass; spring_class: (spring_count,) int8 SpringClass.
-        topology_version: incremented by every topology edit (exporters re-author topology).
+        pinned: boundary-condition flags, (node_count,) bool; pinned nodes never move.
+        active: (node_count,) bool; False for nodes deleted by a cut.
+        node_class: (node_count,) int8 ``NodeClass``.
+    Live-only attributes (copies, dead slots left out, aligned with each other):
+        springs (spring_count, 2) int64 with i < j; rest_lengths L0 [m]; stiffness K [N/m];
+        spring_class int8 ``SpringClass``.
+        triangles (triangle_count, 3) int64, CCW seen from the outside; triangle_areas [m^2]
+        (area when the triangle was made, used for lumped masses).
+        links (link_count, 2) int64 residual-stress pairs; link_force sigma_r A [N];
+        link_smoothing eps [m].
+    material: the Material the model was built with.
+    topology_version: incremented by every topology edit (exporters re-author topology).
     """
 
     def __init__(self, points, masses, springs, rest_lengths, stiffness, damping,
                  pinned, triangles, material: Material):
-        self.points = points
-        self.masses = masses
-        self.springs = springs
-        self.rest_lengths = rest_lengths
-        self.stiffness = stiffness
-        self.damping = damping
-        self.pinned = pinned
-        self.triangles = triangles
+        from .slots import SlotTable
+
+        n = len(points)
+        self.node_table = SlotTable({
+            "points": points, "masses": masses, "damping": damping,
+            "pinned": pinned, "node_class": np.zeros(n, np.int8)})
+        self.spring_table = SlotTable({
+            "pairs": springs, "rest_length": rest_lengths, "stiffness": stiffness,
+            "spring_class": np.zeros(len(springs), np.int8)}, key="pairs")
+        self.triangle_table = SlotTable({
+            "corners": triangles, "area": _areas(points, triangles)}, key="corners")
+        self.link_table = SlotTable({
+            "pairs": np.zeros((0, 2), np.int64), "force": np.zeros(0),
+            "smoothing": np.zeros(0)}, key="pairs")
         self.material = material
-        self.links = np.zeros((0, 2), dtype=np.int64)
-        self.link_force = np.zeros(0)
-        self.link_smoothing = np.zeros(0)
-        self.active = np.ones(len(points), dtype=bool)
-        self.node_class = np.zeros(len(points), dtype=np.int8)
-        self.spring_class = np.zeros(len(springs), dtype=np.int8)
         self.topology_version = 0
+
+    # ----------------------------------------------------------------- node views
+    def _node_view(name):  # noqa: N805 - property factory used in the class body
+        def get(self):
+            return self.node_table.column(name)
+
+        def put(self, value):
+            self.node_table.column(name)[:] = value
+            self.node_table.set(name, np.arange(self.node_table.count), self.node_table.column(name))
+
+        return property(get, put, doc=f"Node column '{name}' over all node slots (a view).")
+
+    points = _node_view("points")
+    masses = _node_view("masses")
+    damping = _node_view("damping")
+    pinned = _node_view("pinned")
+    node_class = _node_view("node_class")
+    del _node_view
+
+    @property
+    def active(self) -> np.ndarray:
+        """(node_count,) bool view: nodes alive (not deleted by a cut)."""
+        return self.node_table.alive
+
+    # ----------------------------------------------------------------- live views
+    @property
+    def springs(self) -> np.ndarray:
+        return self.spring_table.live("pairs")
+
+    @property
+    def rest_lengths(self) -> np.ndarray:
+        return self.spring_table.live("rest_length")
+
+    @property
+    def stiffness(self) -> np.ndarray:
+        return self.spring_table.live("stiffness")
+
+    @property
+    def spring_class(self) -> np.ndarray:
+        return self.spring_table.live("spring_class")
+
+    @property
+    def triangles(self) -> np.ndarray:
+        return self.triangle_table.live("corners")
+
+    @property
+    def triangle_areas(self) -> np.ndarray:
+        return self.triangle_table.live("area")
+
+    @property
+    def links(self) -> np.ndarray:
+        return self.link_table.live("pairs")
+
+    @property
+    def link_force(self) -> np.ndarray:
+        return self.link_table.live("force")
+
+    @property
+    def link_smoothing(self) -> np.ndarray:
+        return self.link_table.live("smoothing")
 
     # ----------------------------------------------------------------- constructors
     @classmethod
@@ -233,39 +303,46 @@ class TissueModel:
     # ----------------------------------------------------------------- sizes
     @property
     def node_count(self) -> int:
-        return len(self.points)
+        """Node slots, deleted nodes included (the range of valid node indices)."""
+        return self.node_table.count
+
+    @property
+    def active_node_count(self) -> int:
+        """Nodes alive."""
+        return self.node_table.live_count
 
     @property
     def spring_count(self) -> int:
-        return len(self.springs)
+        return self.spring_table.live_count
 
     @property
     def triangle_count(self) -> int:
-        return len(self.triangles)
+        return self.triangle_table.live_count
 
     @property
     def link_count(self) -> int:
-        return len(self.links)
+        return self.link_table.live_count
 
     @property
     def total_mass(self) -> float:
-        """Sum of node masses [kg]."""
-        return float(self.masses.sum())
+        """Sum of the masses of the live nodes [kg]."""
+        return float(self.masses[self.active].sum())
 
     def pin_box(self, lower, upper) -> None:
         """Pin every node whose rest position lies inside the axis-aligned box [lower, upper] [m]."""
         lo = np.asarray(lower, dtype=np.float64)
         hi = np.asarray(upper, dtype=np.float64)
-        self.pinned |= np.all((self.points >= lo) & (self.points <= hi), axis=1)
+        self.pinned = self.pinned | np.all((self.points >= lo) & (self.points <= hi), axis=1)
 
     # ----------------------------------------------------------------- residual stress
     def add_residual_links(self, pairs, rest_lengths, *, area=None,
-                           smoothing=None) -> None:
+                           smoothing=None) -> np.ndarray:
         """Join node pairs (l, 2) by residual-stress links (SPEC section 1).
 
         Force magnitude sigma_r * A with sigma_r = E eps_r (paper Eq. 3) and, by default,
         A = thickness x rest length of the deleted spring [m^2]; ``area`` overrides A
         (scalar or (l,)). ``smoothing`` [m] defaults to 0.25 x the rest length.
+        Returns the link slots.
         """
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         L0 = _per_item(rest_lengths, len(pairs), "rest_lengths")
@@ -275,6 +352,5 @@ class TissueModel:
         eps = DEFAULT_LINK_SMOOTHING * L0 if smoothing is None else _per_item(
             smoothing, len(pairs), "smoothing", lower_open=True)
         eps = np.maximum(eps, 1e-9)
-        self.links = np.concatenate([self.links, pairs])
-        self.link_force = np.concatenate([self.link_force, self.material.residual_stress * A])
-        self.link_smoothing = np.concatenate([self.link_smoothing, eps])
+        return self.link_table.append(pairs=pairs, force=self.material.residual_stress * A,
+                                      smoothing=eps)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import write_csv, write_json
+from .io import write_csv, write_json, write_ply
 from .scene import Scene
 from .simulator import Simulator
 from .stability import stable_time_step
@@ -27,6 +27,8 @@ class RunResult:
 
     metrics: dict
     columns: dict = field(default_factory=dict)
+    final_mesh: dict | None = None
+    """points (k, 3) [m], triangles (t, 3) and node_class (k,) of the live nodes at the end."""
 
 
 def prepare_simulation(scene: Scene):
@@ -66,7 +68,8 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
     frame (frame 0 is the initial state) and ``finish(metrics)`` at the end."""
     model, sim, path, steps_per_frame = prepare_simulation(scene)
     frames = scene.frame_count
-    cols = {c: np.zeros(frames + 1) for c in TIMESERIES_COLUMNS}
+    columns = TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
+    cols = {c: np.zeros(frames + 1) for c in columns}
     bar = _progress(frames, quiet)
     for obs in observers:
         obs.on_frame(sim, 0)
@@ -83,6 +86,8 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
             cols["tool_fx"][frame], cols["tool_fy"][frame], cols["tool_fz"][frame] = sim.tool_force
             cols["contacts"][frame] = sim.contact_count
             cols["kinetic_energy"][frame] = sim.kinetic_energy()
+            if sim.cutter is not None:
+                cols["incision_width_m"][frame] = sim.cutter.incision_width()
     finally:
         if bar is not None:
             bar.close()
@@ -111,16 +116,47 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
         "max_tool_force_n": sim.max_tool_force,
         "finite": True,
     }
+    metrics["mesh"] = mesh_quality(sim)
+    if sim.cutter is not None:
+        metrics.update(sim.cutter.metrics())
     for obs in observers:
         obs.finish(metrics)
-    return RunResult(metrics, cols)
+    return RunResult(metrics, cols, final_mesh(sim))
+
+
+def mesh_quality(sim) -> dict:
+    """``mesh`` entry of metrics.json: validity, smallest angle, slivers made by the cut."""
+    from .mesh_checks import check_mesh
+
+    model = sim.model
+    made = sim.cutter.live_new_triangles() if sim.cutter is not None else np.zeros(0, np.int64)
+    report = check_mesh(sim.positions, model.triangles, model.springs, active=model.active,
+                        masses=model.masses, sliver_triangles=made)
+    return {"valid": report.valid, "problems": report.problems[:10],
+            "min_angle_deg": report.min_angle_deg, "slivers": report.slivers,
+            "triangles": model.triangle_count, "triangles_made_by_cut": int(len(made)),
+            "nodes": model.active_node_count}
+
+
+def final_mesh(sim) -> dict:
+    """The live surface at the end: compact node numbering, classes kept."""
+    model = sim.model
+    live = np.flatnonzero(model.active)
+    remap = np.full(model.node_count, -1, dtype=np.int64)
+    remap[live] = np.arange(len(live))
+    return {"points": sim.positions[live], "triangles": remap[model.triangles],
+            "node_class": model.node_class[live].copy()}
 
 
 def write_outputs(result: RunResult, out_dir) -> list[Path]:
-    """Write metrics.json and timeseries.csv into out_dir (each atomically)."""
+    """Write metrics.json, timeseries.csv and final_mesh.ply into out_dir (each atomically)."""
     out = Path(out_dir)
     columns = list(result.columns)
     rows = zip(*(result.columns[c] for c in columns))
     write_csv(out / "timeseries.csv", columns, ([float(v) for v in row] for row in rows))
+    written = [out / "timeseries.csv"]
+    if result.final_mesh is not None:
+        write_ply(out / "final_mesh.ply", **result.final_mesh)
+        written.append(out / "final_mesh.ply")
     write_json(out / "metrics.json", result.metrics)
-    return [out / "timeseries.csv", out / "metrics.json"]
+    return written + [out / "metrics.json"]

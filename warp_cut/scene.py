@@ -24,17 +24,19 @@ from .solver import INTEGRATORS
 __all__ = ["Scene", "load_scene", "parse_scene", "apply_overrides", "bundled_scene_path",
            "DEFAULT_SCENE"]
 
-DEFAULT_SCENE = "skin_press"
+DEFAULT_SCENE = "straight_incision"
 """Bundled scene run by ``warp-cut run`` without a scene argument."""
 
 _SCHEMA: dict[str, set[str]] = {
-    "": {"name", "duration", "fps", "device", "tissue", "material", "physics", "solver", "tool"},
+    "": {"name", "duration", "fps", "device", "tissue", "material", "physics", "solver", "tool",
+         "cutting"},
     "tissue": {"kind", "size", "spacing", "path", "scale", "thickness", "density", "pinned",
                "uniform_mass"},
     "material": {"stiffness", "damping", "youngs_modulus", "residual_strain"},
     "physics": {"gravity", "residual_stress", "collision", "cutting"},
     "solver": {"integrator", "dt", "substeps", "safety"},
     "tool": {"radius", "length", "keyframes"},
+    "cutting": {"sweep_radius", "interval", "force_threshold", "spacing", "tolerance", "lip_offset"},
 }
 _EXTENSIONS: dict[str, set[str]] = {}
 """Extra top-level tables other modules register (name -> allowed keys)."""
@@ -128,6 +130,7 @@ class Scene:
     physics: dict
     solver: dict
     tool: dict | None
+    cutting: dict
     data: dict = field(repr=False)
     path: Path | None = None
 
@@ -180,7 +183,15 @@ class Scene:
                     gravity=p["gravity"] if p["gravity"] is not None else None,
                     device=self.device, substeps=self.solver["substeps"],
                     residual_stress=p["residual_stress"], collision=p["collision"],
-                    safety=self.solver["safety"])
+                    safety=self.solver["safety"], cutting=self.cut_settings())
+
+    def cut_settings(self):
+        """The CutSettings of ``[cutting]`` if ``physics.cutting`` is on, else None."""
+        if not self.physics["cutting"]:
+            return None
+        from .cutting import CutSettings
+
+        return CutSettings(**self.cutting)
 
 
 def _check_keys(reader: _Reader, table: dict, section: str) -> None:
@@ -301,6 +312,19 @@ def parse_scene(data: dict, path=None) -> Scene:
         sol_t, "solver", "substeps", low=1, high=1e6, integer=True)
     solver["safety"] = r.number(sol_t, "solver", "safety", 0.5, low=0, high=1.0, low_open=True)
 
+    cut_t = r.table("cutting")
+    _check_keys(r, cut_t, "cutting")
+    cutting = {}
+    for key in ("sweep_radius", "spacing", "tolerance", "lip_offset"):
+        if key in cut_t:
+            cutting[key] = r.number(cut_t, "cutting", key, low=0, high=1.0, low_open=True)
+    if "interval" in cut_t:
+        cutting["interval"] = r.number(cut_t, "cutting", "interval", low=0, high=duration)
+    if "force_threshold" in cut_t:
+        cutting["force_threshold"] = r.number(cut_t, "cutting", "force_threshold", low=0, high=1e6)
+    if physics["cutting"] and "tool" not in data:
+        raise r.error("physics.cutting", "needs a [tool] to cut with")
+
     tool = None
     if "tool" in data:
         tool_t = r.table("tool")
@@ -331,7 +355,7 @@ def parse_scene(data: dict, path=None) -> Scene:
         tool = {"radius": radius, "length": length if length is not None else max(lengths),
                 "keyframes": frames}
     return Scene(name=name, duration=duration, fps=fps, device=device, material=material,
-                 tissue=tissue, physics=physics, solver=solver, tool=tool, data=data,
+                 tissue=tissue, physics=physics, solver=solver, tool=tool, cutting=cutting, data=data,
                  path=Path(path) if path else None)
 
 

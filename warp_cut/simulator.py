@@ -41,13 +41,16 @@ class Simulator:
         max_displacement: a node farther than this from its rest position [m] is a runaway
             (default 1000 x the model's bounding-box diagonal, at least 1 m).
         device: Warp device, ``"cpu"`` or ``"cuda:0"``.
+        cutting: None/False for no cutting, True or a ``CutSettings`` to cut the tissue where
+            the tool goes (see ``warp_cut.cutting``); the Cutter is then ``self.cutter``.
     """
 
     def __init__(self, model: TissueModel, dt: float | str = 1.0e-3, *,
                  integrator: str = "semi_implicit", gravity=DEFAULT_GRAVITY,
                  device: str = "cpu", substeps: int | str = "auto",
                  residual_stress: bool = True, collision: bool = True,
-                 safety: float = 0.5, max_displacement: float | None = None):
+                 safety: float = 0.5, max_displacement: float | None = None,
+                 cutting=None):
         if integrator not in INTEGRATORS:
             raise InputError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
         if not (0 < safety <= 1):
@@ -62,11 +65,11 @@ class Simulator:
             raise InputError(f"gravity must be three finite numbers [m/s^2], got {gravity!r}")
         self.residual_stress = residual_stress
         self.collision = collision
-        extent = np.ptp(model.points, axis=0) if model.node_count else np.zeros(3)
+        extent = np.ptp(model.points[model.active], axis=0) if model.active.any() else np.zeros(3)
         self.max_displacement = float(max_displacement or max(1.0, 1000.0 * np.linalg.norm(extent)))
         self._dt_request, self._substeps_request = dt, substeps
-        self._state = State(model.points, device=device)
-        self._next = State(model.points, device=device)
+        self._state = State(model.node_table.buffer("points"), device=device)
+        self._next = State(model.node_table.buffer("points"), device=device)
         self._step_count = 0
         self._time_offset = 0.0
         self._tool_checked = False
@@ -87,7 +90,14 @@ class Simulator:
         self.first_contact_point_exact: np.ndarray | None = None
         """Mean position [m] of the nodes the swept tool reaches first, or None."""
         self._ccd = None
+        self.contact_centroid: np.ndarray | None = None
+        """Mean position [m] of the nodes in contact during the last step, or None."""
         self._rebuild()
+        self.cutter = None
+        if cutting:
+            from .cutting import CutSettings, Cutter
+
+            self.cutter = Cutter(self, cutting if isinstance(cutting, CutSettings) else None)
 
     # --------------------------------------------------------------- set-up
     def _rebuild(self) -> None:
@@ -138,13 +148,13 @@ class Simulator:
 
     @property
     def positions(self) -> np.ndarray:
-        """Node positions [m], (node_count, 3) float64 (a copy)."""
-        return self._state.positions.numpy().astype(np.float64)
+        """Node positions [m], (node_count, 3) float64 (a copy; deleted node slots included)."""
+        return self._state.positions.numpy()[: self.model.node_count].astype(np.float64)
 
     @property
     def velocities(self) -> np.ndarray:
-        """Node velocities [m/s], (node_count, 3) float64 (a copy)."""
-        return self._state.velocities.numpy().astype(np.float64)
+        """Node velocities [m/s], (node_count, 3) float64 (a copy; deleted node slots included)."""
+        return self._state.velocities.numpy()[: self.model.node_count].astype(np.float64)
 
     @property
     def incision_controls(self) -> np.ndarray | None:
@@ -167,7 +177,9 @@ class Simulator:
             arr = np.asarray(value, dtype=np.float64)
             if arr.shape != (n, 3) or not np.all(np.isfinite(arr)):
                 raise InputError(f"{name} must be finite with shape ({n}, 3), got {arr.shape}")
-            target.assign(arr.astype(np.float32))
+            full = target.numpy()
+            full[:n] = arr
+            target.assign(full)
 
     def kinetic_energy(self) -> float:
         """Sum of 0.5 m |v|^2 over the nodes [J]."""
@@ -226,6 +238,10 @@ class Simulator:
             else:
                 self.tool_force = np.zeros(3)
                 self.contact_count = 0.0
+                self.contact_centroid = None
+            if self.cutter is not None:
+                self.cutter.after_step(pose if self.collision else None)
+                h = self.substep
         self.check_finite()
 
     def _continuous_first_contact(self, start: Tool, end: Tool) -> None:
@@ -251,9 +267,48 @@ class Simulator:
         self.tool_force = s.tool_force.numpy()[0].astype(np.float64) / self.substeps
         self.contact_count = count / self.substeps
         self.max_tool_force = max(self.max_tool_force, float(np.linalg.norm(self.tool_force)))
+        self.contact_centroid = (s.contact_position_sum.numpy()[0].astype(np.float64) / count
+                                 if count else None)
         if count and self.first_contact_time is None:
             self.first_contact_time = self.time
-            self.first_contact_point = s.contact_position_sum.numpy()[0].astype(np.float64) / count
+            self.first_contact_point = self.contact_centroid
+
+    def apply_topology_edit(self, new_nodes: np.ndarray, new_positions: np.ndarray) -> None:
+        """Mirror the model's latest edit on the device: changed slots are copied (arrays are
+        reallocated only when a table outgrew its capacity) and new nodes start at
+        ``new_positions`` (k, 3) [m] at rest."""
+        reallocated = self.device_model.sync()
+        capacity = self.model.node_table.capacity
+        if self._state.node_count < capacity:
+            for attr in ("_state", "_next"):
+                old = getattr(self, attr)
+                x = np.zeros((capacity, 3), np.float32)
+                v = np.zeros((capacity, 3), np.float32)
+                x[: old.node_count] = old.positions.numpy()
+                v[: old.node_count] = old.velocities.numpy()
+                setattr(self, attr, State(x, v, device=self.device))
+            reallocated = True
+        if len(new_nodes):
+            from .kernels.scatter import scatter_vec3
+
+            idx = wp.array(np.asarray(new_nodes, np.int32), dtype=wp.int32, device=self.device)
+            x = wp.array(np.asarray(new_positions, np.float32), dtype=wp.vec3, device=self.device)
+            zero = wp.zeros(len(new_nodes), dtype=wp.vec3, device=self.device)
+            for state in (self._state, self._next):
+                wp.launch(scatter_vec3, dim=len(new_nodes), device=self.device, inputs=[state.positions, idx, x])
+                wp.launch(scatter_vec3, dim=len(new_nodes), device=self.device, inputs=[state.velocities, idx, zero])
+        if reallocated:
+            self.solver = INTEGRATORS[self.integrator](
+                self.device_model, gravity=self.gravity,
+                residual_stress=self.residual_stress, collision=self.collision)
+        elif hasattr(self.solver, "topology_changed"):
+            self.solver.topology_changed()
+
+    def update_step_limit(self, sums: np.ndarray | None = None) -> None:
+        """Recompute the stable step (from precomputed row sums if given) and the substeps."""
+        self.step_limit = stable_time_step(self.model, self.positions if sums is None else None,
+                                           sums=sums)
+        self._choose_steps()
 
     def check_finite(self) -> None:
         """Raise SimulationUnstable if any active node is non-finite or has run away."""

@@ -10,10 +10,16 @@ With every neighbour free, R_i = 2 S_i (S_i the stiffness sum at node i), so
 
     h_undamped = min_i sqrt(2 m_i / S_i)
 
-and springs to pinned nodes only make it larger. It is always safe. With the implicit damping of the integrator (c = D / m), a mode of frequency
-omega is stable for ``h < (c + sqrt(c^2 + 4 omega^2)) / omega^2``, which grows with c; the
-damped limit uses the smallest c and the largest omega (mass-proportional damping is exact
-here, other damping conservative in practice).
+is always safe; springs to pinned nodes only make it larger. With the implicit damping of the integrator
+(c = D / m), a mode of frequency omega is stable for ``h < (c + sqrt(c^2 + 4 omega^2)) / omega^2``,
+which grows with c. The damped limit takes this per node, with c_i = D_i / m_i and
+omega_i^2 = R_i / m_i, and the smallest over the nodes:
+
+    h_damped = min_i (D_i + sqrt(D_i^2 + 4 R_i m_i)) / R_i
+
+It is exact for mass-proportional damping and tends to 2 D / R_i for heavily damped light
+nodes, whatever their mass (the step of the overdamped motion x' = -K x / D); the tests check
+it against the eigenvalues of the iteration.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "spring_geometric_factor"]
+__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "spring_geometric_factor", "RowSums"]
 
 
 @dataclass(frozen=True)
@@ -67,10 +73,11 @@ def node_stiffness_sums(model, positions: np.ndarray | None = None) -> np.ndarra
 
 
 def stable_time_step(model, positions: np.ndarray | None = None, *,
-                     include_damping: bool = True, active: np.ndarray | None = None) -> StepLimit:
-    """The stable step of semi-implicit Euler for ``model`` at ``positions`` (default: rest)."""
-    free = ~model.pinned if active is None else (~model.pinned & active)
-    sums = node_stiffness_sums(model, positions)
+                     include_damping: bool = True, sums: np.ndarray | None = None) -> StepLimit:
+    """The stable step of semi-implicit Euler for ``model`` at ``positions`` (default: rest).
+    ``sums``: precomputed Gershgorin row sums (e.g. kept up to date by a RowSums)."""
+    free = ~model.pinned & model.active
+    sums = node_stiffness_sums(model, positions) if sums is None else sums
     candidates = free & (sums > 0)
     if not np.any(candidates):
         return StepLimit(float("inf"), float("inf"), -1, 0.0)
@@ -81,6 +88,42 @@ def stable_time_step(model, positions: np.ndarray | None = None, *,
     undamped = 2.0 / np.sqrt(w2)
     if not include_damping:
         return StepLimit(undamped, undamped, node, float(np.sqrt(w2)))
-    c = float(np.min(model.damping[free] / model.masses[free]))
-    damped = (c + np.sqrt(c * c + 4.0 * w2)) / w2
-    return StepLimit(float(damped), float(undamped), node, float(np.sqrt(w2)))
+    R, m, D = sums[candidates], model.masses[candidates], model.damping[candidates]
+    per_node = (D + np.sqrt(D * D + 4.0 * R * m)) / R
+    k = int(np.argmin(per_node))
+    node = int(np.flatnonzero(candidates)[k])
+    return StepLimit(float(per_node[k]), float(undamped), node, float(np.sqrt(w2)))
+
+
+class RowSums:
+    """Gershgorin row sums kept up to date across topology edits at the cost of the nodes an
+    edit touches (a full ``node_stiffness_sums`` is O(springs))."""
+
+    def __init__(self, model, positions: np.ndarray | None = None):
+        self.model = model
+        self.sums = node_stiffness_sums(model, positions)
+
+    def update(self, nodes, editor, positions) -> None:
+        """Recompute the rows of ``nodes`` from the editor's adjacency; ``positions`` is
+        indexable by node ([m]) for the geometric factor."""
+        model = self.model
+        if model.node_count > len(self.sums):
+            self.sums = np.concatenate([self.sums, np.zeros(model.node_count - len(self.sums))])
+        springs, links = model.spring_table, model.link_table
+        pairs, rest, k = springs.column("pairs"), springs.column("rest_length"), springs.column("stiffness")
+        lpairs, lforce, leps = links.column("pairs"), links.column("force"), links.column("smoothing")
+        pinned = model.pinned
+        for v in nodes:
+            total = 0.0
+            if model.active[v]:
+                for slot in editor.node_springs[v]:
+                    i, j = pairs[slot]
+                    other = j if i == v else i
+                    length = float(np.linalg.norm(positions[int(j)] - positions[int(i)]))
+                    g = float(spring_geometric_factor([length], [rest[slot]])[0])
+                    total += k[slot] * g * (1.0 + (not pinned[other]))
+                for slot in editor.node_links[v]:
+                    i, j = lpairs[slot]
+                    other = j if i == v else i
+                    total += lforce[slot] / leps[slot] * (1.0 + (not pinned[other]))
+            self.sums[v] = total

@@ -1,0 +1,43 @@
+"""warp_cut/slots.py and device_model.py: in-place edits with spare capacity, mirrored slot by slot."""
+
+import numpy as np
+import pytest
+
+from warp_cut import TissueModel
+from warp_cut.device_model import DeviceModel
+from warp_cut.slots import SlotTable
+
+
+def test_append_kill_and_dirty_slots():
+    t = SlotTable({"pairs": np.array([[0, 1], [1, 2]]), "w": np.array([1.0, 2.0])}, key="pairs")
+    assert t.capacity >= 16 and t.live_count == 2
+    t.take_dirty()
+    slots = t.append(pairs=[[2, 3]], w=[3.0])
+    t.kill([0])
+    assert slots.tolist() == [2] and t.live("pairs").tolist() == [[1, 2], [2, 3]]
+    assert t.column("pairs")[0].tolist() == [-1, -1]  # dead slot marked for the kernels
+    dirty, grown = t.take_dirty()
+    assert dirty.tolist() == [0, 2] and not grown
+    t.append(pairs=np.zeros((40, 2), int), w=np.zeros(40))
+    assert t.take_dirty()[1] and t.capacity >= 43 and t.live("w")[:2].tolist() == [2.0, 3.0]
+    with pytest.raises(ValueError):
+        t.append(pairs=[[1, 1]])
+
+
+def test_device_mirror_follows_edits_and_growth():
+    model = TissueModel.from_patch((0.01, 0.01), 0.002)
+    dev = DeviceModel(model)
+    table = model.spring_table
+    table.kill([0])
+    table.set("stiffness", [1], 7.0)
+    assert dev.sync() is False
+    assert dev.spring_indices.numpy()[:2].tolist() == [-1, -1]
+    assert dev.spring_stiffness.numpy()[1] == pytest.approx(7.0)
+    # growing beyond capacity reallocates, and the mirror equals the host afterwards
+    n = table.capacity
+    table.append(pairs=np.tile([[0, 1]], (n, 1)), rest_length=np.ones(n), stiffness=np.ones(n),
+                 spring_class=np.zeros(n, np.int8))
+    assert dev.sync() is True
+    np.testing.assert_array_equal(dev.spring_indices.numpy()[: 2 * table.count],
+                                  table.column("pairs").ravel())
+    assert dev.spring_count == table.count

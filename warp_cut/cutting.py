@@ -1,0 +1,314 @@
+"""Cutter: the three-stage cut (paper section 2.3) driven by the tool while the simulation runs.
+
+Once the tool is in contact (and, optionally, pushes harder than a threshold), every
+``interval`` seconds a cut event runs:
+
+* the contact point is where the tool axis crosses the tissue's surface plane at the cut;
+* Stage 1 - the tool's cross-section circle sweeps a capsule from the previous contact point to
+  this one; the nodes inside are deleted with their springs, the springs passing through it are
+  deleted (each whose two nodes survive becomes a residual-stress link), and the triangles
+  touched form the grey area (Warp kernels find the hits; the edit is host-side);
+* Stage 2 - the contact path is refitted with a C1 chain of cubic Bezier segments whose end is
+  the tool's contact point;
+* Stage 3 - the grey area is re-meshed by shortest-distance node matching (``warp_cut.remesh``).
+
+The incision ends when the tool leaves the surface; the next contact starts a new one.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from .classes import NodeClass
+from .control import Tool
+from .errors import InputError
+from .incision import Incision
+from .remesh import fill_hole
+from .stability import RowSums
+from .topology import NodePositions, TopologyEditor
+
+__all__ = ["CutSettings", "Cutter", "STAGES"]
+
+STAGES = ("stage1_swept_volume", "stage2_bezier", "stage3_matching", "device_update")
+"""Names of the timed parts of a cut event (latency in metrics.json)."""
+
+
+@dataclass(frozen=True)
+class CutSettings:
+    """Cutting parameters (SI). None means the documented default.
+
+    sweep_radius: radius of the swept circle [m] (default: the tool radius).
+    interval: time between cut events [s] (default 1/60, one per rendered frame).
+    force_threshold: cutting starts once |tool force| >= this [N] (default 0: any contact).
+    spacing: lip station spacing [m] (default: median spring rest length).
+    tolerance: Bezier fit tolerance [m] (default 0.1 x spacing).
+    lip_offset: half the initial slit width [m] (default 0.25 x sweep radius).
+    """
+
+    sweep_radius: float | None = None
+    interval: float = 1.0 / 60.0
+    force_threshold: float = 0.0
+    spacing: float | None = None
+    tolerance: float | None = None
+    lip_offset: float | None = None
+
+    def __post_init__(self):
+        for name in ("sweep_radius", "spacing", "tolerance", "lip_offset"):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise InputError(f"cutting.{name} must be > 0 m, got {v}")
+        if not (np.isfinite(self.interval) and self.interval >= 0):
+            raise InputError(f"cutting.interval must be >= 0 s, got {self.interval}")
+        if not (np.isfinite(self.force_threshold) and self.force_threshold >= 0):
+            raise InputError(f"cutting.force_threshold must be >= 0 N, got {self.force_threshold}")
+
+
+class _Hits:
+    """Compact hit lists from the Stage 1 kernels, grown when they overflow."""
+
+    def __init__(self, device):
+        self.device = device
+        self.buffer = wp.zeros(1024, dtype=wp.int32, device=device)
+        self.count = wp.zeros(1, dtype=wp.int32, device=device)
+
+    def run(self, kernel, dim, inputs) -> np.ndarray:
+        while True:
+            self.count.zero_()
+            wp.launch(kernel, dim=dim, device=self.device, inputs=inputs + [self.buffer, self.count])
+            n = int(self.count.numpy()[0])
+            if n <= self.buffer.shape[0]:
+                return self.buffer.numpy()[:n].astype(np.int64)
+            self.buffer = wp.zeros(2 * n, dtype=wp.int32, device=self.device)
+
+
+class Cutter:
+    """Cuts ``sim.model`` while ``sim`` runs; called by the Simulator after every step."""
+
+    def __init__(self, sim, settings: CutSettings | None = None):
+        self.sim = sim
+        self.settings = settings or CutSettings()
+        model = sim.model
+        if model.triangle_count == 0:
+            raise InputError("cutting needs a tissue with triangles (a surface mesh)")
+        self.editor = TopologyEditor(model)
+        self.row_sums = RowSums(model)
+        lengths = model.rest_lengths
+        self.spacing = self.settings.spacing or float(np.median(lengths))
+        self.incisions: list[Incision] = []
+        self.current: Incision | None = None
+        self._last_event = -np.inf
+        self._hits = _Hits(sim.device)
+        self.latency_ms = {name: [] for name in STAGES}
+        self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
+                       "lip_nodes": 0, "new_springs": 0, "removed_fragments": 0, "events": 0}
+        self.new_triangles: set[int] = set()
+        self.contact_path: list[np.ndarray] = []
+        self.unfilled_holes = 0
+        # compile the cut's kernels now, so that no cut event pays for it
+        from .kernels import cutting as cut_kernels, scatter
+
+        for module in (cut_kernels, scatter):
+            wp.load_module(module, device=sim.device)
+
+    # ----------------------------------------------------------------- driving
+    def after_step(self, tool: Tool | None) -> None:
+        """Advance the cut after a simulation step with the tool pose ``tool`` (None: no tool)."""
+        sim = self.sim
+        if tool is None or tool.radius <= 0:
+            self.end_incision()
+            return
+        if sim.time - self._last_event < self.settings.interval - 1e-12:
+            return
+        self._last_event = sim.time
+        if self.current is None:
+            pushing = np.linalg.norm(sim.tool_force) >= self.settings.force_threshold
+            if sim.contact_count > 0 and pushing and sim.contact_centroid is not None:
+                normal = self._surface_normal(sim.contact_centroid)
+                point = self._axis_crossing(tool, sim.contact_centroid, normal)
+                if point is not None:
+                    self.start_incision(point, normal, self.settings.sweep_radius or tool.radius)
+            return
+        point = self._axis_crossing(tool, self.current.path[0], self.current.normal)
+        if point is None:
+            self.end_incision()  # the tool left the surface: this incision is complete
+            return
+        self.extend_incision(point)
+
+    def start_incision(self, point, normal, sweep_radius: float) -> Incision:
+        """Begin a new incision at ``point`` [m] on the surface with unit ``normal``; the swept
+        circle has radius ``sweep_radius`` [m]. (``after_step`` calls this at first contact;
+        a haptic loop or a test may call it directly.)"""
+        if not (np.isfinite(sweep_radius) and sweep_radius > 0):
+            raise InputError(f"sweep radius must be > 0 m, got {sweep_radius}")
+        s = self.settings
+        self.current = Incision(point, normal, spacing=self.spacing,
+                                lip_offset=s.lip_offset or 0.25 * sweep_radius,
+                                tolerance=s.tolerance or 0.1 * self.spacing)
+        self.current.sweep_radius = float(sweep_radius)
+        self.incisions.append(self.current)
+        return self.current
+
+    def end_incision(self) -> None:
+        """Finish the current incision (the next cut starts a new one)."""
+        self.current = None
+
+    @staticmethod
+    def _axis_crossing(tool: Tool, origin, normal) -> np.ndarray | None:
+        """Where the tool axis crosses the plane (origin, normal), or None if it does not."""
+        s0 = float(np.dot(tool.p0 - origin, normal))
+        s1 = float(np.dot(tool.p1 - origin, normal))
+        if s0 * s1 > 0 or s0 == s1:
+            return None
+        return tool.p0 + (s0 / (s0 - s1)) * (tool.p1 - tool.p0)
+
+    def _surface_normal(self, point) -> np.ndarray:
+        """Mean unit normal of the triangles around the live node nearest ``point``."""
+        model = self.sim.model
+        x = self._positions_view()
+        live = np.flatnonzero(model.active)
+        node = int(live[np.argmin(np.linalg.norm(x[live] - point, axis=1))])
+        corners = model.triangle_table.column("corners")
+        normal = np.zeros(3)
+        for t in self.editor.node_triangles[node]:
+            p = x[corners[t]].astype(np.float64)
+            normal += np.cross(p[1] - p[0], p[2] - p[0])
+        n = np.linalg.norm(normal)
+        return normal / n if n > 0 else np.array([0.0, 0.0, 1.0])
+
+    def _positions_view(self) -> np.ndarray:
+        # zero-copy on the CPU; a copy from a GPU
+        return self.sim.state.positions.numpy()[: self.sim.model.node_count]
+
+    # ----------------------------------------------------------------- one event
+    def extend_incision(self, point) -> None:
+        """One cut event: sweep from the incision's last contact point to ``point`` [m]
+        (Stages 1-3), then mirror the edit on the device."""
+        from .kernels.cutting import capsule_node_hits, capsule_spring_hits
+
+        sim, inc, editor = self.sim, self.current, self.editor
+        if inc is None:
+            raise InputError("no incision in progress: call start_incision first")
+        point = np.asarray(point, dtype=np.float64)
+        r = inc.sweep_radius
+        a = inc.path[-1]
+        if np.linalg.norm(point - a) < 0.1 * self.spacing:
+            return  # the tool has not moved enough to extend the incision
+        dm = sim.device_model
+        t0 = time.perf_counter()
+        nodes = self._hits.run(capsule_node_hits, dm.node_count,
+                               [sim.state.positions, dm.node_flags, wp.vec3(*a), wp.vec3(*point), float(r)])
+        springs = self._hits.run(capsule_spring_hits, dm.spring_count,
+                                 [sim.state.positions, dm.spring_indices, wp.vec3(*a), wp.vec3(*point), float(r)])
+        editor.begin()
+        doomed = set(int(v) for v in nodes)
+        if inc.end_node >= 0:
+            doomed.add(inc.end_node)  # the slit's end moves on with the tool
+            inc.end_node = -1
+        own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
+        residual = [sl for sl in springs if not (set(sim.model.spring_table.column("pairs")[sl]) & own_lips)]
+        no_residual = [sl for sl in springs if sl not in set(residual)]
+        editor.delete_springs(residual, residual=True, doomed_nodes=doomed)
+        editor.delete_springs(no_residual, residual=False)
+        editor.delete_nodes(sorted(doomed))
+        t1 = time.perf_counter()
+        inc.extend(point, min_step=0.0)
+        inc.plan_stations()
+        self.contact_path.append(point)
+        t2 = time.perf_counter()
+        positions = NodePositions(self._positions_view())
+        result = {"created": [], "yellow": [], "blue": [], "unfilled": 0}
+        if editor.report.deleted_triangle_corners:
+            result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions)
+        report = editor.finish()
+        t3 = time.perf_counter()
+        self._apply(report, positions)
+        t4 = time.perf_counter()
+        for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
+            self.latency_ms[name].append(1e3 * dt)
+        tot = self.totals
+        tot["events"] += 1
+        tot["deleted_nodes"] += len(report.deleted_nodes) - len(report.removed_fragments)
+        tot["deleted_springs"] += len(report.deleted_springs)
+        tot["residual_links"] += len(report.residual_links)
+        tot["lip_nodes"] += len(result["created"])
+        tot["new_springs"] += len(report.new_springs)
+        tot["removed_fragments"] += len(report.removed_fragments)
+        self.unfilled_holes += result["unfilled"]
+        self.new_triangles.update(report.new_triangles)
+        self.new_triangles.difference_update(report.deleted_triangles)
+
+    def _apply(self, report, positions: NodePositions) -> None:
+        """Mirror the edit on the device, initialise new nodes, update the stable step."""
+        sim = self.sim
+        new = np.array(report.new_nodes, dtype=np.int64)
+        sim.apply_topology_edit(new, positions[new] if len(new) else np.zeros((0, 3)))
+        # rows of the nodes whose springs or links changed
+        changed = set(self.editor.touched_nodes)
+        for slot in report.residual_links:
+            changed.update(int(v) for v in sim.model.link_table.column("pairs")[slot])
+        changed |= {int(v) for v in report.deleted_nodes}
+        self.row_sums.update(sorted(changed), self.editor, NodePositions(self._positions_view()))
+        sim.update_step_limit(self.row_sums.sums)
+
+    # ----------------------------------------------------------------- measures
+    def incision_width(self) -> float:
+        """Median distance [m] between the paired lip nodes across the incisions (nan if none)."""
+        x = self._positions_view()
+        active = self.sim.model.active
+        widths = []
+        for inc in self.incisions:
+            pairs = inc.pairs()
+            if len(pairs):
+                pairs = pairs[active[pairs[:, 0]] & active[pairs[:, 1]]]
+                widths.extend(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1).tolist())
+        return float(np.median(widths)) if widths else float("nan")
+
+    def lip_deviation(self) -> float:
+        """Largest distance [m] of a lip node from the tool's contact path (a polyline)."""
+        model = self.sim.model
+        lips = np.flatnonzero(model.active & (model.node_class == NodeClass.LIP))
+        if not len(lips) or len(self.contact_path) < 1:
+            return float("nan")
+        polylines = [np.array(inc.path) for inc in self.incisions if len(inc.path) > 1]
+        x = self._positions_view()[lips].astype(np.float64)
+        best = np.full(len(lips), np.inf)
+        for poly in polylines:
+            a, b = poly[:-1], poly[1:]
+            ab = b - a
+            denom = np.maximum((ab * ab).sum(1), 1e-300)
+            t = np.clip(((x[:, None] - a[None]) * ab[None]).sum(2) / denom[None], 0, 1)
+            d = np.linalg.norm(x[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(1)
+            best = np.minimum(best, d)
+        return float(best.max())
+
+    def metrics(self) -> dict:
+        """The cut's entries of metrics.json: ``cut``, ``incision`` and ``latency_ms``."""
+        length = sum(inc.length for inc in self.incisions)
+        cut = {k: v for k, v in self.totals.items()}
+        cut["incisions"] = len(self.incisions)
+        cut["unfilled_holes"] = self.unfilled_holes
+        return {
+            "cut": cut,
+            "incision": {"length_m": length, "max_deviation_m": self.lip_deviation(),
+                         "width_m": self.incision_width()},
+            "latency_ms": self.latency_summary(),
+        }
+
+    def live_new_triangles(self) -> np.ndarray:
+        """Rows (into ``model.triangles``) of the live triangles this cutter made."""
+        table = self.sim.model.triangle_table
+        live = table.live_slots()
+        return np.flatnonzero(np.isin(live, np.fromiter(self.new_triangles, dtype=np.int64)))
+
+    def latency_summary(self) -> dict:
+        """p50 / p99 / max latency per stage [ms] over the cut events."""
+        out = {}
+        for name, values in self.latency_ms.items():
+            v = np.asarray(values)
+            out[name] = ({"p50_ms": float(np.percentile(v, 50)), "p99_ms": float(np.percentile(v, 99)),
+                          "max_ms": float(v.max()), "events": int(len(v))} if len(v) else None)
+        return out

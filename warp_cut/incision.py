@@ -1,0 +1,201 @@
+"""Incision: the tool's contact path, its Bezier curve (Stage 2) and the lips' stations.
+
+The path is the sequence of contact points [m]. The curve is a C1 chain of cubic Bezier
+segments fitted to it within ``tolerance`` (paper Eq. 5-8, ``warp_cut.bezier``); its end
+point is the latest contact point, so the incision's end follows the tool.
+
+The incision is a slit with two lips. Its stations are arc-length positions u along the
+curve: the start (u = 0) and the end (u = length) each carry one node, every interior station
+two, one per lip, offset by +-``lip_offset`` across the curve. Walking around the slit - up the
+left lip, round the end, back down the right lip - gives each point the slit coordinate
+
+    theta = u (left lip),  theta = length (end),  theta = 2 length - u (right lip),  0 (start)
+
+which Stage 3 uses to pair the border of the grey area with the lips.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .bezier import BezierChain, fit_chain
+
+__all__ = ["Incision"]
+
+_SAMPLES_PER_SEGMENT = 48
+
+
+def _polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance (m,) [m] of points (m, 3) to a polyline (k, 3)."""
+    a, b = poly[:-1], poly[1:]
+    ab = b - a
+    denom = np.maximum((ab * ab).sum(axis=1), 1e-300)
+    t = np.clip(((points[:, None, :] - a[None]) * ab[None]).sum(axis=2) / denom[None], 0.0, 1.0)
+    return np.linalg.norm(points[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=2).min(axis=1)
+
+
+def _max_distance(points: np.ndarray, curve: BezierChain) -> float:
+    """Largest distance [m] of points to a curve, through a dense polyline of the curve
+    (within ~1e-4 of the chord length of the true distance)."""
+    s = curve.segment_count
+    dense = curve.evaluate(np.linspace(0.0, s, 64 * s + 1))
+    return float(_polyline_distance(points, dense).max())
+
+
+class Incision:
+    """One continuous cut (one contact episode of the tool).
+
+    normal: (3,) unit surface normal at the cut (the side convention: left = normal x tangent).
+    spacing: lip station spacing [m] (about the local mesh spacing).
+    lip_offset: half the initial width of the slit [m].
+    tolerance: maximum distance of the curve from the contact path [m].
+    """
+
+    def __init__(self, start_point, normal, *, spacing: float, lip_offset: float,
+                 tolerance: float):
+        self.path = [np.asarray(start_point, dtype=np.float64)]
+        self.normal = np.asarray(normal, dtype=np.float64) / np.linalg.norm(normal)
+        self.spacing = float(spacing)
+        self.lip_offset = float(lip_offset)
+        self.tolerance = float(tolerance)
+        self.curve: BezierChain | None = None
+        self._frozen = np.zeros((0, 4, 3))
+        self._tail_start = 0
+        self._poly = np.repeat(self.path[0][None], 2, axis=0)
+        self._cum = np.zeros(2)
+        # interior stations: arc-length u and the node of each lip (-1: none yet)
+        self.station_u: list[float] = []
+        self.left: list[int] = []
+        self.right: list[int] = []
+        self.start_node = -1
+        self.end_node = -1
+
+    # ----------------------------------------------------------------- curve
+    @property
+    def length(self) -> float:
+        """Arc length of the curve [m]."""
+        return float(self._cum[-1])
+
+    def extend(self, point, min_step: float) -> bool:
+        """Append a contact point [m] and refit; points closer than min_step [m] to the last one
+        are skipped (returns False)."""
+        point = np.asarray(point, dtype=np.float64)
+        if np.linalg.norm(point - self.path[-1]) < min_step:
+            return False
+        self.path.append(point)
+        self.curve = self._refit()
+        u = np.linspace(0.0, self.curve.segment_count, _SAMPLES_PER_SEGMENT * self.curve.segment_count + 1)
+        self._poly = self.curve.evaluate(u)
+        self._cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self._poly, axis=0), axis=1))])
+        return True
+
+    def _fit_from(self, start: int, stop: int) -> np.ndarray | None:
+        """Controls fitting path[start:stop] and joining the frozen part C1 (None if the
+        joined fit misses the tolerance)."""
+        pts = np.array(self.path[start:stop])
+        ctrl = fit_chain(pts, self.tolerance).controls.copy()
+        if len(self._frozen):
+            last = self._frozen[-1]
+            ctrl[0, 1] = ctrl[0, 0] + (last[3] - last[2])  # equal derivatives at the join
+            if len(pts) > 2 and _max_distance(pts, BezierChain(ctrl)) > self.tolerance:
+                return None
+        return ctrl
+
+    def _refit(self) -> BezierChain:
+        """Refit the tail of the path only: once the unfrozen tail spans more than eight
+        station spacings, all but its last four are frozen, so the cost of an extension does
+        not grow with the incision. Falls back to one fit of the whole path if a C1 join
+        cannot meet the tolerance."""
+        n = len(self.path)
+        tail = np.array(self.path[self._tail_start:])
+        chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tail, axis=0), axis=1))])
+        if chord[-1] > 8.0 * self.spacing:
+            k = self._tail_start + int(np.searchsorted(chord, chord[-1] - 4.0 * self.spacing))
+            piece = self._fit_from(self._tail_start, k + 1)
+            if piece is not None:
+                self._frozen = np.concatenate([self._frozen, piece])
+                self._tail_start = k
+        ctrl = self._fit_from(self._tail_start, n)
+        if ctrl is None:
+            self._frozen, self._tail_start = np.zeros((0, 4, 3)), 0
+            ctrl = self._fit_from(0, n)
+        return BezierChain(np.concatenate([self._frozen, ctrl]))
+
+    def point_at(self, u) -> np.ndarray:
+        """Curve points (m, 3) [m] at arc lengths u (m,) [m] (piecewise-linear between dense samples)."""
+        u = np.clip(np.atleast_1d(np.asarray(u, dtype=np.float64)), 0.0, self.length)
+        return np.stack([np.interp(u, self._cum, self._poly[:, c]) for c in range(3)], axis=1)
+
+    def tangent_at(self, u) -> np.ndarray:
+        """Unit tangents (m, 3) at arc lengths u [m]."""
+        u = np.atleast_1d(np.asarray(u, dtype=np.float64))
+        k = np.clip(np.searchsorted(self._cum, u, side="right") - 1, 0, len(self._poly) - 2)
+        d = self._poly[k + 1] - self._poly[k]
+        n = np.linalg.norm(d, axis=1, keepdims=True)
+        return np.divide(d, n, out=np.zeros_like(d), where=n > 0)
+
+    def project(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(u (m,) arc length of the closest curve point [m], side (m,) +1 left / -1 right,
+        distance (m,) [m]) of points (m, 3)."""
+        x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        a, b = self._poly[:-1], self._poly[1:]
+        ab = b - a
+        denom = np.maximum((ab * ab).sum(axis=1), 1e-300)
+        t = np.clip(((x[:, None, :] - a[None]) * ab[None]).sum(axis=2) / denom[None], 0.0, 1.0)
+        closest = a[None] + t[..., None] * ab[None]
+        dist = np.linalg.norm(x[:, None, :] - closest, axis=2)
+        k = np.argmin(dist, axis=1)
+        rows = np.arange(len(x))
+        seg_len = np.diff(self._cum)
+        u = self._cum[k] + t[rows, k] * seg_len[k]
+        tangent = self.tangent_at(u)
+        lateral = np.einsum("ij,ij->i", np.cross(tangent, x - closest[rows, k]), np.broadcast_to(self.normal, x.shape))
+        side = np.where(lateral >= 0.0, 1, -1)
+        return u, side, dist[rows, k]
+
+    def theta(self, u, side) -> np.ndarray:
+        """Slit coordinate of points at arc length u [m] on a side (+1 left, -1 right)."""
+        u = np.asarray(u, dtype=np.float64)
+        return np.where(np.asarray(side) > 0, u, 2.0 * self.length - u)
+
+    # ----------------------------------------------------------------- stations
+    def plan_stations(self) -> None:
+        """Add interior stations every ``spacing`` up to half a spacing before the end."""
+        last = self.station_u[-1] if self.station_u else 0.0
+        while self.length - (last + self.spacing) >= 0.5 * self.spacing:
+            last += self.spacing
+            self.station_u.append(last)
+            self.left.append(-1)
+            self.right.append(-1)
+
+    def lip_position(self, u: float, side: int) -> np.ndarray:
+        """Where a lip node of station u [m] on ``side`` is created [m]."""
+        c = self.point_at(u)[0]
+        if side == 0:
+            return c
+        across = np.cross(self.normal, self.tangent_at(u)[0])
+        return c + side * self.lip_offset * across
+
+    def lip_nodes(self) -> list[tuple[int, float, int, int]]:
+        """Every lip slot as (node or -1, theta, side, station index): start (side 0, index -1),
+        interior stations on both lips, end (side 0, index -2)."""
+        out = [(self.start_node, 0.0, 0, -1), (self.end_node, self.length, 0, -2)]
+        for k, u in enumerate(self.station_u):
+            out.append((self.left[k], u, 1, k))
+            out.append((self.right[k], 2.0 * self.length - u, -1, k))
+        return out
+
+    def set_lip_node(self, station: int, side: int, node: int) -> None:
+        if station == -1:
+            self.start_node = node
+        elif station == -2:
+            self.end_node = node
+        elif side > 0:
+            self.left[station] = node
+        else:
+            self.right[station] = node
+
+    def pairs(self) -> np.ndarray:
+        """(k, 2) node pairs (left, right) of interior stations that have both lip nodes."""
+        pairs = [(a, b) for a, b in zip(self.left, self.right) if a >= 0 and b >= 0]
+        return np.array(pairs, dtype=np.int64).reshape(-1, 2)

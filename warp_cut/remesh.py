@@ -1,0 +1,318 @@
+"""Stage 3 of the cut: shortest-distance node matching (paper section 2.3.3, Algorithm 2).
+
+The grey area removed by Stage 1 leaves a hole whose border is a chain of surviving nodes.
+Each chain is paired with the lip nodes of the incision that face it (by the slit coordinate
+theta, see ``warp_cut.incision``) and the strip between the two is triangulated by walking
+along both at once: every step adds one triangle, joining the current border node to the
+nearest next lip node or the current lip node to the next border node - whichever new edge
+is shorter. This is the paper's rule: border nodes join their nearest lip node (red springs)
+and each quad of two neighbouring border nodes and their lip nodes is split by its shorter
+diagonal (green). Nodes joined to the curve's end points are yellow, the others blue.
+Triangles keep the winding of the surface they replace.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+import numpy as np
+
+from .classes import NodeClass, SpringClass
+
+__all__ = ["hole_chains", "zip_strip", "ear_clip", "fill_hole"]
+
+
+def hole_chains(editor, removed_corners) -> list[list[int]]:
+    """Border chains of the hole left by removed triangles (their corners, winding order).
+
+    A chain follows the directed edges a -> b of removed triangles that a surviving triangle
+    still uses (it is the hole's border, oriented like the removed surface). Closed chains
+    repeat their first node at the end. Edges on the tissue's outer border break chains.
+    """
+    active = editor.model.active
+    nxt: dict[int, list[int]] = defaultdict(list)
+    incoming: dict[int, int] = defaultdict(int)
+    seen = set()
+    for a, b, c in removed_corners:
+        for i, j in ((a, b), (b, c), (c, a)):
+            if (i, j) in seen or not (active[i] and active[j]):
+                continue
+            if editor.triangles_with_edge(i, j):
+                seen.add((i, j))
+                nxt[i].append(j)
+                incoming[j] += 1
+    chains = []
+    starts = [v for v in nxt if incoming[v] == 0]
+    while True:
+        if starts:
+            v = starts.pop()
+        else:
+            remaining = [u for u, outs in nxt.items() if outs]
+            if not remaining:
+                break
+            v = remaining[0]
+        chain = [v]
+        while nxt.get(v):
+            v = nxt[v].pop()
+            chain.append(v)
+            if v == chain[0]:
+                break
+        if len(chain) > 1:
+            chains.append(chain)
+    return chains
+
+
+def _valid(tri, positions, normal) -> bool:
+    a, b, c = tri
+    if a == b or b == c or a == c:
+        return False
+    p = positions[[a, b, c]]
+    n = np.cross(p[1] - p[0], p[2] - p[0])
+    return float(np.dot(n, normal)) > 1e-12 * float(np.dot(p[1] - p[0], p[1] - p[0]) + 1e-300)
+
+
+def zip_strip(border, lips, positions, normal) -> list[tuple[int, int, int]]:
+    """Triangulate the strip between a border chain and a lip chain (both ordered the same
+    way along the strip, the border chain oriented like the surface's edges on it)."""
+    tris = []
+    i = j = 0
+    while i < len(border) - 1 or j < len(lips) - 1:
+        along_border = (border[i], border[i + 1], lips[j]) if i < len(border) - 1 else None
+        along_lips = (border[i], lips[j + 1], lips[j]) if j < len(lips) - 1 else None
+        if along_border is None:
+            choice = "lips"
+        elif along_lips is None:
+            choice = "border"
+        else:
+            d_border = np.linalg.norm(positions[border[i + 1]] - positions[lips[j]])
+            d_lips = np.linalg.norm(positions[lips[j + 1]] - positions[border[i]])
+            choice = "border" if d_border <= d_lips else "lips"
+            first = along_border if choice == "border" else along_lips
+            other = along_lips if choice == "border" else along_border
+            if len(set(first)) == 3 and not _valid(first, positions, normal) and _valid(other, positions, normal):
+                choice = "lips" if choice == "border" else "border"
+        tri = along_border if choice == "border" else along_lips
+        if len(set(tri)) == 3:
+            tris.append(tri)
+        if choice == "border":
+            i += 1
+        else:
+            j += 1
+    return tris
+
+
+def _polygon(border, lips) -> list[int]:
+    """The hole's boundary cycle: along the border chain, then back along the lips (shared end
+    nodes once)."""
+    cycle = list(border) + list(reversed(lips))
+    out = []
+    for v in cycle:
+        if not out or out[-1] != v:
+            out.append(v)
+    while len(out) > 1 and out[0] == out[-1]:
+        out.pop()
+    return out
+
+
+def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
+    """Triangulate a simple polygon (node cycle, counter-clockwise about ``normal``) by cutting
+    ears, best (largest smallest angle) first; [] if the polygon is not simple."""
+    n = np.asarray(normal, dtype=np.float64)
+    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    pts = positions[polygon]
+    xy = {v: (float(p @ e1), float(p @ e2)) for v, p in zip(polygon, pts)}
+    if len(set(polygon)) != len(polygon):
+        return []
+    ring = list(polygon)
+    tris = []
+
+    def cross(a, b, c):
+        return (xy[b][0] - xy[a][0]) * (xy[c][1] - xy[a][1]) - (xy[b][1] - xy[a][1]) * (xy[c][0] - xy[a][0])
+
+    def min_angle(a, b, c):
+        p = [np.array(xy[v]) for v in (a, b, c)]
+        angles = []
+        for k in range(3):
+            u, w = p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]
+            angles.append(np.arctan2(abs(u[0] * w[1] - u[1] * w[0]), u @ w))
+        return min(angles)
+
+    while len(ring) > 3:
+        best, best_q = None, -1.0
+        for k in range(len(ring)):
+            a, b, c = ring[k - 1], ring[k], ring[(k + 1) % len(ring)]
+            if cross(a, b, c) <= 0:
+                continue  # reflex or flat corner
+            inside = any(cross(a, b, v) >= 0 and cross(b, c, v) >= 0 and cross(c, a, v) >= 0
+                         for v in ring if v not in (a, b, c))
+            if inside:
+                continue
+            q = min_angle(a, b, c)
+            if q > best_q:
+                best, best_q = k, q
+        if best is None:
+            return []
+        a, b, c = ring[best - 1], ring[best], ring[(best + 1) % len(ring)]
+        tris.append((a, b, c))
+        ring.pop(best)
+    if len(ring) == 3 and cross(*ring) > 0:
+        tris.append(tuple(ring))
+    else:
+        return []
+    return tris
+
+
+def _lips_for_chain(incision, chain, theta_of, lip_slots):
+    """The lip slots facing a border chain, ordered along it (decreasing theta)."""
+    total = 2.0 * incision.length
+    closed = chain[0] == chain[-1]
+    lip_node_ids = {node for node, *_ in lip_slots if node >= 0}
+    if closed:
+        hi, lo = total, 0.0
+    else:
+        hi, lo = theta_of(chain[0]), theta_of(chain[-1])
+    wraps = not closed and hi < lo
+    picked = []
+    for node, theta, side, station in lip_slots:
+        if node >= 0 and node in (chain[0], chain[-1]):
+            continue  # shared end points are added below
+        t = theta + total if wraps and theta <= hi else theta
+        top = hi + total if wraps else hi
+        if closed and station == -1:
+            continue  # the start closes the loop at both ends
+        if lo < t < top:
+            picked.append((t, node, side, station))
+    picked.sort(key=lambda item: -item[0])
+    ordered = [(node, side, station) for _, node, side, station in picked]
+    if closed:
+        start = [s for s in lip_slots if s[3] == -1][0]
+        ordered = [(start[0], 0, -1)] + ordered + [(start[0], 0, -1)]
+    else:
+        if chain[0] in lip_node_ids:
+            ordered.insert(0, (chain[0], None, None))
+        if chain[-1] in lip_node_ids:
+            ordered.append((chain[-1], None, None))
+    return ordered
+
+
+def fill_hole(editor, incision, removed_corners, positions) -> dict:
+    """Re-mesh the hole around ``incision`` (Stage 3). ``positions`` is a ``NodePositions`` of the
+    current node positions [m] (new springs take their rest lengths from them); the positions
+    of the lip nodes made here are added to it."""
+    chains = hole_chains(editor, removed_corners)
+    lip_slots = incision.lip_nodes()
+    lip_theta = {node: theta for node, theta, *_ in lip_slots if node >= 0}
+
+    def theta_of(node):
+        if node in lip_theta:
+            return lip_theta[node]
+        u, side, _ = incision.project(positions[node][None])
+        return float(incision.theta(u, side)[0])
+
+    # a lip slot whose node was deleted (by this cut or a later one) is made again
+    active = editor.model.active
+    lip_slots = [(node if node >= 0 and active[node] else -1, theta, side, station)
+                 for node, theta, side, station in lip_slots]
+    created, triangles, skipped = [], [], 0
+    for chain in chains:
+        if chain[0] == chain[-1]:
+            # start the loop at the slit's start node, or the node nearest it (theta ~ 0)
+            body = chain[:-1]
+            total = 2.0 * incision.length
+            if incision.start_node in body:
+                k = body.index(incision.start_node)
+            else:
+                k = int(np.argmin([min(theta_of(v), total - theta_of(v)) for v in body]))
+            chain = body[k:] + body[:k] + [body[k]]
+        # lips already meshed elsewhere are not part of this hole
+        free = [s for s in lip_slots if s[0] < 0 or not editor.node_triangles[s[0]]
+                or s[0] in (chain[0], chain[-1])]
+        ordered = _lips_for_chain(incision, chain, theta_of, free)
+        if not ordered:
+            continue
+        lips = []
+        made_here: dict[tuple, int] = {}
+        for node, side, station in ordered:
+            if node < 0 and (station, side) in made_here:
+                node = made_here[(station, side)]  # a closed loop meets the start node twice
+            if node < 0:
+                u = incision.station_u[station] if station >= 0 else (0.0 if station == -1 else incision.length)
+                point = incision.lip_position(u, side)
+                node = int(editor.add_nodes(point[None], NodeClass.LIP)[0])
+                positions[node] = point
+                incision.set_lip_node(station, side, node)
+                lip_slots = [(node if (st == station and sd == side) else n, th, sd, st)
+                             for n, th, sd, st in lip_slots]
+                created.append(node)
+                made_here[(station, side)] = node
+            lips.append(node)
+        strip = zip_strip(chain, lips, positions, incision.normal)
+        if not _acceptable(strip, editor, positions, incision.normal):
+            # displaced nodes can make the strip fold over: triangulate the hole polygon itself
+            strip = ear_clip(_polygon(chain, lips), positions, incision.normal)
+            if not _acceptable(strip, editor, positions, incision.normal):
+                skipped += 1  # leave this hole open rather than make an invalid mesh
+                continue
+        for tri in strip:
+            triangles.append(tri)
+            editor.add_triangle(tri, positions, SpringClass.RED)
+    classes = _classify(editor, incision, triangles, positions)
+    return {"created": created, "triangles": triangles,
+            "chains": len(chains), "unfilled": skipped, **classes}
+
+
+def _acceptable(strip, editor, positions, normal) -> bool:
+    """A strip may join the mesh only if every triangle keeps the surface's orientation and
+    no edge ends up with more than two triangles or the same direction twice."""
+    if not strip:
+        return False
+    directed = set()
+    for tri in strip:
+        if not _valid(tri, positions, normal):
+            return False
+        for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
+            if (a, b) in directed:
+                return False
+            directed.add((a, b))
+    corners = editor.model.triangle_table.column("corners")
+    for a, b in directed:
+        existing = editor.triangles_with_edge(a, b) if a < len(editor.node_triangles) and b < len(editor.node_triangles) else set()
+        if len(existing) >= 2 or (b, a) in directed and existing:
+            return False
+        for t in existing:  # the surviving triangle must run the edge the other way
+            c = list(corners[t])
+            if any(c[k] == a and c[(k + 1) % 3] == b for k in range(3)):
+                return False
+    return True
+
+
+def _classify(editor, incision, triangles, positions) -> dict:
+    """Red / green / lip springs and yellow / blue nodes of the new triangles."""
+    lip_set = {n for n in incision.left + incision.right + [incision.start_node, incision.end_node] if n >= 0}
+    ends = {incision.start_node, incision.end_node} - {-1}
+    rungs: dict[int, set] = defaultdict(set)
+    for tri in triangles:
+        for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
+            if (a in lip_set) != (b in lip_set):
+                border, lip = (a, b) if b in lip_set else (b, a)
+                rungs[border].add(lip)
+            elif a in lip_set and b in lip_set:
+                slot = editor.spring_between(a, b)
+                if slot is not None:
+                    editor.set_spring_class(slot, SpringClass.LIP)
+    yellow, blue = [], []
+    for border, lips in rungs.items():
+        lips = sorted(lips)
+        dist = [np.linalg.norm(positions[lip] - positions[border]) for lip in lips]
+        nearest = lips[int(np.argmin(dist))]
+        for lip in lips:
+            slot = editor.spring_between(border, lip)
+            if slot is not None:
+                editor.set_spring_class(slot, SpringClass.RED if lip == nearest else SpringClass.GREEN)
+        (yellow if ends & set(lips) else blue).append(border)
+    editor.set_node_class(yellow, NodeClass.YELLOW)
+    editor.set_node_class(blue, NodeClass.BLUE)
+    editor.set_node_class(lip_set, NodeClass.LIP)
+    return {"yellow": yellow, "blue": blue}

@@ -1,0 +1,132 @@
+"""SlotTable: columns of equal length with spare capacity, for a topology edited in place.
+
+Rows are slots. A deleted row stays in place as a dead slot (its key column set to -1), so
+the indices of the survivors never change and an edit costs what it touches, not the size of
+the table. Appending grows the capacity geometrically. Changed slots are remembered until
+``take_dirty`` so that device mirrors can update just those rows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["SlotTable"]
+
+
+class SlotTable:
+    """A table of named numpy columns.
+
+    key: the name of the column whose value -1 marks a dead slot (an index column), or None
+        for tables where liveness is kept only in ``alive``.
+    """
+
+    def __init__(self, columns: dict[str, np.ndarray], key: str | None = None):
+        lengths = {len(v) for v in columns.values()}
+        if len(lengths) != 1:
+            raise ValueError(f"columns must have equal lengths, got {lengths}")
+        self.count = lengths.pop()
+        self.key = key
+        capacity = max(16, self.count)
+        self._cols: dict[str, np.ndarray] = {}
+        for name, values in columns.items():
+            values = np.asarray(values)
+            buf = np.zeros((capacity,) + values.shape[1:], dtype=values.dtype)
+            if name == key:
+                buf[:] = -1
+            buf[: self.count] = values
+            self._cols[name] = buf
+        self._alive = np.zeros(capacity, dtype=bool)
+        self._alive[: self.count] = True
+        if key is not None and self.count:
+            keys = self._cols[key][: self.count]
+            self._alive[: self.count] = np.all(keys.reshape(self.count, -1) >= 0, axis=1)
+        self._dirty: list[np.ndarray] = []
+        self.grown = False
+        """True once the capacity changed since the last ``take_dirty`` (mirrors reallocate)."""
+
+    @property
+    def capacity(self) -> int:
+        return len(self._alive)
+
+    @property
+    def alive(self) -> np.ndarray:
+        """(count,) bool view: which slots hold a live row."""
+        return self._alive[: self.count]
+
+    def alive_buffer(self) -> np.ndarray:
+        """(capacity,) bool view of liveness including unused spare slots (False)."""
+        return self._alive
+
+    @property
+    def live_count(self) -> int:
+        return int(self.alive.sum())
+
+    def column(self, name: str) -> np.ndarray:
+        """(count, ...) view of a column over all used slots, dead ones included."""
+        return self._cols[name][: self.count]
+
+    def buffer(self, name: str) -> np.ndarray:
+        """(capacity, ...) view of a column including unused spare slots."""
+        return self._cols[name]
+
+    def live(self, name: str) -> np.ndarray:
+        """Copy of a column over live slots only, (live_count, ...)."""
+        return self.column(name)[self.alive]
+
+    def live_slots(self) -> np.ndarray:
+        return np.flatnonzero(self.alive)
+
+    def append(self, **values) -> np.ndarray:
+        """Append rows (every column must be given); returns their slot indices."""
+        if set(values) != set(self._cols):
+            raise ValueError(f"append needs columns {sorted(self._cols)}, got {sorted(values)}")
+        n = {len(np.asarray(v)) for v in values.values()}
+        if len(n) != 1:
+            raise ValueError("appended columns must have equal lengths")
+        n = n.pop()
+        start = self.count
+        if start + n > self.capacity:
+            self._grow(start + n)
+        for name, v in values.items():
+            self._cols[name][start:start + n] = v
+        self._alive[start:start + n] = True
+        self.count = start + n
+        slots = np.arange(start, start + n)
+        self._dirty.append(slots)
+        return slots
+
+    def kill(self, slots) -> None:
+        """Mark slots dead (their key column becomes -1)."""
+        slots = np.asarray(slots, dtype=np.int64)
+        if not len(slots):
+            return
+        self._alive[slots] = False
+        if self.key is not None:
+            self._cols[self.key][slots] = -1
+        self._dirty.append(slots)
+
+    def set(self, name: str, slots, values) -> None:
+        """Overwrite a column at some slots."""
+        slots = np.asarray(slots, dtype=np.int64)
+        self._cols[name][slots] = values
+        self._dirty.append(slots)
+
+    def take_dirty(self) -> tuple[np.ndarray, bool]:
+        """(unique changed slots since the last call, whether the capacity grew); resets both."""
+        dirty = np.unique(np.concatenate(self._dirty)) if self._dirty else np.zeros(0, np.int64)
+        grown = self.grown
+        self._dirty, self.grown = [], False
+        return dirty, grown
+
+    def _grow(self, needed: int) -> None:
+        capacity = max(needed, 2 * self.capacity)
+        for name, buf in self._cols.items():
+            new = np.zeros((capacity,) + buf.shape[1:], dtype=buf.dtype)
+            if name == self.key:
+                new[:] = -1
+            new[: self.count] = buf[: self.count]
+            self._cols[name] = new
+        alive = np.zeros(capacity, dtype=bool)
+        alive[: self.count] = self._alive[: self.count]
+        self._alive = alive
+        self.grown = True

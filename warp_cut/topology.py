@@ -1,0 +1,257 @@
+"""TopologyEditor: the one place where a TissueModel's topology changes.
+
+Nodes, springs, triangles, masses, classes and residual links change together in one edit:
+deleting a node deletes its springs, triangles and links; deleting a spring whose two end
+nodes survive makes a residual-stress link (SPEC section 1) and deletes the triangles it
+bounds; new triangles bring their missing edge springs; lumped masses of every node touched
+are recomputed from its triangles; nodes left without any triangle are removed as fragments.
+Every operation costs what it touches: adjacency (node -> springs, node -> triangles) is
+kept up to date instead of being rebuilt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .classes import NodeClass, SpringClass
+from .errors import InputError
+
+__all__ = ["TopologyEditor", "EditReport", "NodePositions"]
+
+
+class NodePositions:
+    """Current node positions [m] for an edit: a (slots, 3) base array (e.g. a zero-copy view of
+    the device state) plus positions of nodes the edit creates. Indexing by an int gives (3,),
+    by a list (k, 3), always float64."""
+
+    def __init__(self, base: np.ndarray):
+        self.base = base
+        self.extra: dict[int, np.ndarray] = {}
+
+    def __getitem__(self, index):
+        if isinstance(index, (int, np.integer)):
+            index = int(index)
+            return self.extra[index] if index in self.extra else np.asarray(self.base[index], np.float64)
+        return np.array([self[int(i)] for i in index], dtype=np.float64).reshape(-1, 3)
+
+    def __setitem__(self, index: int, value) -> None:
+        self.extra[int(index)] = np.asarray(value, dtype=np.float64)
+
+
+@dataclass
+class EditReport:
+    """What one edit did (slot indices)."""
+
+    deleted_nodes: list = field(default_factory=list)
+    deleted_springs: list = field(default_factory=list)
+    deleted_triangles: list = field(default_factory=list)
+    deleted_triangle_corners: list = field(default_factory=list)
+    """Corners (3 node indices, in winding order) of each deleted triangle."""
+    residual_links: list = field(default_factory=list)
+    new_nodes: list = field(default_factory=list)
+    new_springs: list = field(default_factory=list)
+    new_triangles: list = field(default_factory=list)
+    removed_fragments: list = field(default_factory=list)
+    """Nodes deleted because the edit left them without any triangle."""
+    stray_springs: list = field(default_factory=list)
+    """Springs deleted because the edit left them on no triangle (inside the grey area)."""
+
+
+class TopologyEditor:
+    """Edits a model in place. Use ``begin()`` ... operations ... ``finish(positions)``."""
+
+    def __init__(self, model):
+        self.model = model
+        n = model.node_table.count
+        self.node_springs: list[set] = [set() for _ in range(n)]
+        self.node_triangles: list[set] = [set() for _ in range(n)]
+        self.node_links: list[set] = [set() for _ in range(n)]
+        for slot in model.spring_table.live_slots():
+            i, j = model.spring_table.column("pairs")[slot]
+            self.node_springs[i].add(int(slot))
+            self.node_springs[j].add(int(slot))
+        for slot in model.triangle_table.live_slots():
+            for v in model.triangle_table.column("corners")[slot]:
+                self.node_triangles[v].add(int(slot))
+        for slot in model.link_table.live_slots():
+            i, j = model.link_table.column("pairs")[slot]
+            self.node_links[i].add(int(slot))
+            self.node_links[j].add(int(slot))
+        self.report = EditReport()
+        self._touched: set[int] = set()
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def touched_nodes(self) -> set:
+        """Nodes whose springs, triangles or links changed in the current edit."""
+        return set(self._touched)
+
+    def spring_between(self, i: int, j: int) -> int | None:
+        """The live spring slot joining nodes i and j, or None."""
+        pairs = self.model.spring_table.column("pairs")
+        for slot in self.node_springs[i]:
+            a, b = pairs[slot]
+            if (a == j) or (b == j):
+                return slot
+        return None
+
+    def triangles_with_edge(self, i: int, j: int) -> set:
+        return self.node_triangles[i] & self.node_triangles[j]
+
+    # ------------------------------------------------------------------ edit
+    def begin(self) -> None:
+        self.report = EditReport()
+        self._touched = set()
+
+    def delete_triangles(self, slots) -> None:
+        table = self.model.triangle_table
+        corners = table.column("corners")
+        for slot in {int(s) for s in slots}:
+            if not table.alive[slot]:
+                continue
+            for v in corners[slot]:
+                self.node_triangles[v].discard(slot)
+                self._touched.add(int(v))
+            self.report.deleted_triangle_corners.append(tuple(int(v) for v in corners[slot]))
+            table.kill([slot])
+            self.report.deleted_triangles.append(slot)
+
+    def delete_springs(self, slots, *, residual: bool = True, doomed_nodes=()) -> None:
+        """Delete springs and the triangles they bound. A deleted spring whose two end nodes
+        survive (are active and not in ``doomed_nodes``) becomes a residual-stress link."""
+        model = self.model
+        table = model.spring_table
+        pairs = table.column("pairs")
+        rest = table.column("rest_length")
+        doomed = set(int(v) for v in doomed_nodes)
+        link_pairs, link_rest = [], []
+        for slot in {int(s) for s in slots}:
+            if not table.alive[slot]:
+                continue
+            i, j = (int(v) for v in pairs[slot])
+            self.delete_triangles(self.triangles_with_edge(i, j))
+            if residual and model.active[i] and model.active[j] and i not in doomed and j not in doomed:
+                link_pairs.append((i, j))
+                link_rest.append(rest[slot])
+            self.node_springs[i].discard(slot)
+            self.node_springs[j].discard(slot)
+            self._touched.update((i, j))
+            table.kill([slot])
+            self.report.deleted_springs.append(slot)
+        if link_pairs:
+            new = model.add_residual_links(link_pairs, link_rest)
+            for slot, (i, j) in zip(new, link_pairs):
+                self.node_links[i].add(int(slot))
+                self.node_links[j].add(int(slot))
+            self.report.residual_links.extend(int(s) for s in new)
+
+    def delete_links(self, slots) -> None:
+        table = self.model.link_table
+        pairs = table.column("pairs")
+        for slot in {int(s) for s in slots}:
+            if not table.alive[slot]:
+                continue
+            i, j = pairs[slot]
+            self.node_links[i].discard(slot)
+            self.node_links[j].discard(slot)
+            table.kill([slot])
+
+    def delete_nodes(self, nodes) -> None:
+        """Delete nodes with their springs (no residual links: an end is gone), triangles and links."""
+        nodes = [int(v) for v in nodes if self.model.active[int(v)]]
+        doomed = set(nodes)
+        for v in nodes:
+            self.delete_springs(list(self.node_springs[v]), residual=False, doomed_nodes=doomed)
+            self.delete_triangles(list(self.node_triangles[v]))
+            self.delete_links(list(self.node_links[v]))
+        if nodes:
+            self.model.node_table.kill(nodes)
+            self.report.deleted_nodes.extend(nodes)
+            self._touched.difference_update(nodes)
+
+    def add_nodes(self, points, node_class: int = NodeClass.LIP) -> np.ndarray:
+        """New nodes at ``points`` (k, 3) [m] (also their rest positions); masses set at finish."""
+        model = self.model
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        k = len(pts)
+        slots = model.node_table.append(
+            points=pts, masses=np.full(k, 1.0), damping=np.full(k, model.material.damping),
+            pinned=np.zeros(k, bool), node_class=np.full(k, node_class, np.int8))
+        for _ in range(k):
+            self.node_springs.append(set())
+            self.node_triangles.append(set())
+            self.node_links.append(set())
+        self.report.new_nodes.extend(int(s) for s in slots)
+        self._touched.update(int(s) for s in slots)
+        return slots
+
+    def add_spring(self, i: int, j: int, positions: np.ndarray, spring_class: int) -> int:
+        """A spring between i and j with rest length from ``positions`` (node_count, 3) [m];
+        returns the existing slot if there already is one."""
+        if i == j:
+            raise InputError(f"a spring cannot join node {i} to itself")
+        existing = self.spring_between(i, j)
+        if existing is not None:
+            return existing
+        a, b = sorted((int(i), int(j)))
+        length = float(np.linalg.norm(positions[b] - positions[a]))
+        slot = int(self.model.spring_table.append(
+            pairs=np.array([[a, b]]), rest_length=[length],
+            stiffness=[self.model.material.stiffness], spring_class=[spring_class])[0])
+        self.node_springs[a].add(slot)
+        self.node_springs[b].add(slot)
+        self._touched.update((a, b))
+        self.report.new_springs.append(slot)
+        return slot
+
+    def add_triangle(self, corners, positions: np.ndarray,
+                     edge_class: int = SpringClass.NORMAL) -> int:
+        """A triangle (3 node indices, wound CCW seen from outside) with its missing edge springs."""
+        a, b, c = (int(v) for v in corners)
+        for i, j in ((a, b), (b, c), (c, a)):
+            self.add_spring(i, j, positions, edge_class)
+        p = positions[[a, b, c]]
+        area = 0.5 * float(np.linalg.norm(np.cross(p[1] - p[0], p[2] - p[0])))
+        slot = int(self.model.triangle_table.append(corners=np.array([[a, b, c]]), area=[area])[0])
+        for v in (a, b, c):
+            self.node_triangles[v].add(slot)
+            self._touched.add(v)
+        self.report.new_triangles.append(slot)
+        return slot
+
+    def set_spring_class(self, slot: int, spring_class: int) -> None:
+        self.model.spring_table.set("spring_class", [slot], spring_class)
+
+    def set_node_class(self, nodes, node_class: int) -> None:
+        nodes = np.asarray(list(nodes), dtype=np.int64)
+        if len(nodes):
+            self.model.node_table.set("node_class", nodes, node_class)
+
+    # ------------------------------------------------------------------ finish
+    def finish(self, *, lumped: bool = True) -> EditReport:
+        """Remove springs left on no triangle and nodes left without any (fragments), recompute
+    the lumped masses of touched nodes, bump the version."""
+        model = self.model
+        # a spring no triangle uses any more lay inside the grey area: it goes too
+        pairs = model.spring_table.column("pairs")
+        stray = {slot for v in self._touched for slot in self.node_springs[v]
+                 if not self.triangles_with_edge(*(int(u) for u in pairs[slot]))}
+        if stray:
+            self.delete_springs(sorted(stray), residual=False)
+            self.report.stray_springs.extend(sorted(stray))
+        fragments = [v for v in self._touched
+                     if model.active[v] and not self.node_triangles[v]]
+        if fragments:
+            self.delete_nodes(fragments)
+            self.report.removed_fragments.extend(fragments)
+        touched = np.array(sorted(v for v in self._touched if model.active[v]), dtype=np.int64)
+        if len(touched) and lumped:
+            areal = model.material.density * model.material.thickness
+            areas = model.triangle_table.column("area")
+            masses = np.array([areal * sum(areas[t] for t in self.node_triangles[v]) / 3.0
+                               for v in touched])
+            model.node_table.set("masses", touched, masses)
+        model.topology_version += 1
+        return self.report
