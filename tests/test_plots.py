@@ -16,7 +16,7 @@ def _has_color(img, rgb, tol=0.03):
 
 def test_run_writes_preview_and_force_plots(tmp_path):
     out = tmp_path / "run"
-    assert main(["run", "--quiet", "--no-usd", "--out", str(out), "--set", "duration=0.5",
+    assert main(["run", "skin_press", "--quiet", "--no-usd", "--out", str(out), "--set", "duration=0.5",
                  "--set", "tissue.size=[0.02,0.02]"]) == 0
     for name in ("preview.png", "tool_force.png"):
         img = imread(out / name)

@@ -41,7 +41,7 @@ class _Positions:
 
 
 def test_stage_holds_every_frame_of_the_run(tmp_path):
-    scene = load_scene("skin_press", TINY + ["duration=0.3"])
+    scene = load_scene("skin_press", TINY + ["duration=0.3"])  # no cut: positions only
     path = tmp_path / "run" / "press.usdc"
     rec = UsdRecorder(path, scene, chunk_frames=4)
     ref = _Positions()
@@ -96,8 +96,12 @@ def _fake_sim(model, positions, time_s=0.0, incision=None, tool=None):
 
 
 def test_topology_change_and_classes_are_authored_when_they_change(tmp_path):
-    model = TissueModel.from_patch((0.01, 0.01), 0.002, material=Material(), pinned="border")
-    n0 = model.node_count
+    patch = TissueModel.from_patch((0.01, 0.01), 0.002, material=Material(), pinned="border")
+    # the attributes the exporter reads, as plain arrays a test can edit
+    model = SimpleNamespace(points=patch.points.copy(), triangles=patch.triangles.copy(),
+                            active=np.ones(patch.node_count, bool),
+                            node_class=np.zeros(patch.node_count, np.int8), topology_version=0)
+    model.node_count = n0 = patch.node_count
     path = tmp_path / "cut.usda"
     tool = Tool([0, 0, 0.001], [0.01, 0, 0.006], 0.0005)
     rec = UsdRecorder(path, fps=30, tool_radius=0.0005, chunk_frames=3)
@@ -109,6 +113,7 @@ def test_topology_change_and_classes_are_authored_when_they_change(tmp_path):
     keep_tri = ~np.any(model.triangles == gone, axis=1)
     lips = np.array([[0.0005, 0.0001, 0.0], [0.0005, -0.0001, 0.0]])
     model.points = np.vstack([model.points, lips])
+    model.node_count = n0 + 2
     model.active = np.append(model.active, [True, True])
     model.active[gone] = False
     new_tri = [[n0, n0 + 1, 8]]
@@ -160,8 +165,29 @@ def test_topology_change_and_classes_are_authored_when_they_change(tmp_path):
     _assert_valid(path)
 
 
+def test_a_real_cut_is_exported_with_its_topology_changes_and_incision(tmp_path):
+    out = tmp_path / "cut"
+    assert main(["run", "paper_width_curve", "--quiet", "--out", str(out), "--usd-chunk", "16",
+                 "--set", "duration=0.8"]) == 0
+    stage = Usd.Stage.Open(str(out / "paper_width_curve.usdc"))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Tissue"))
+    counts = {len(mesh.GetPointsAttr().Get(t)) for t in range(0, 49)}
+    assert len(counts) > 3  # the cut deletes and adds nodes as it goes
+    curves = UsdGeom.BasisCurves(stage.GetPrimAtPath("/World/Incision"))
+    assert list(curves.GetCurveVertexCountsAttr().Get(0)) == []
+    n = list(curves.GetCurveVertexCountsAttr().Get(48))
+    assert len(n) == 1 and n[0] >= 4 and (n[0] - 1) % 3 == 0
+    classes = set(np.array(UsdGeom.PrimvarsAPI(mesh).GetPrimvar("displayColor").GetIndices(48)))
+    assert {NodeClass.NORMAL, NodeClass.LIP, NodeClass.BLUE} <= classes
+    assert (out / "width.png").is_file()
+    # every time sample checked by the conftest fixture (usd-check and UsdValidation)
+
+
 def test_export_refuses_a_triangle_on_a_deleted_node(tmp_path):
-    model = TissueModel.from_patch((0.01, 0.01), 0.002, material=Material())
+    patch = TissueModel.from_patch((0.01, 0.01), 0.002, material=Material())
+    model = SimpleNamespace(points=patch.points, triangles=patch.triangles, node_count=patch.node_count,
+                            active=np.ones(patch.node_count, bool), topology_version=0,
+                            node_class=np.zeros(patch.node_count, np.int8))
     model.active[int(model.triangles[0, 0])] = False
     rec = UsdRecorder(tmp_path / "bad.usda", fps=30)
     with pytest.raises(ValueError, match="deleted node"):
@@ -182,7 +208,7 @@ def test_chunks_bound_the_frames_held_in_memory(tmp_path):
 
 # ------------------------------------------------------------------ command line
 def test_cli_usd_options(tmp_path):
-    base = ["run", "--quiet", "--set", TINY[0], "--set", TINY[1]]
+    base = ["run", "skin_press", "--quiet", "--set", TINY[0], "--set", TINY[1]]
     out = tmp_path / "a"
     assert main(base + ["--out", str(out)]) == 0
     assert (out / "skin_press.usdc").is_file()
@@ -198,15 +224,15 @@ def test_cli_usd_options(tmp_path):
 
 def test_cli_bad_usd_path_is_bad_input(tmp_path, capsys):
     out = tmp_path / "never"
-    assert main(["run", "--out", str(out), "--usd", str(out / "x.obj")]) == 2
+    assert main(["run", "skin_press", "--out", str(out), "--usd", str(out / "x.obj")]) == 2
     assert "--usd" in capsys.readouterr().err and not out.exists()
-    assert main(["run", "--out", str(out), "--usd-chunk", "0"]) == 2
+    assert main(["run", "skin_press", "--out", str(out), "--usd-chunk", "0"]) == 2
     assert not out.exists()
 
 
 def test_unstable_run_leaves_no_usd(tmp_path):
     out = tmp_path / "boom"
-    code = main(["run", "--out", str(out), "--quiet", "--set", "physics.collision=false",
+    code = main(["run", "skin_press", "--out", str(out), "--quiet", "--set", "physics.collision=false",
                  "--set", "material.damping=0", "--set", "solver.substeps=1", "--usd-chunk", "2",
                  "--set", "solver.dt=0.01", "--set", "duration=0.5", "--set", TINY[0]])
     assert code == 3 and not out.exists()
@@ -216,7 +242,7 @@ def test_killed_run_keeps_the_frames_written(tmp_path):
     """SIGKILL part-way: the stage on disk plays every frame of the completed chunks."""
     out = tmp_path / "killed"
     root = out / "long.usdc"
-    cmd = [sys.executable, "-m", "warp_cut.cli", "run", "--quiet", "--out", str(out),
+    cmd = [sys.executable, "-m", "warp_cut.cli", "run", "skin_press", "--quiet", "--out", str(out),
            "--usd-chunk", "5", "--set", "name='long'", "--set", TINY[0],
            "--set", "duration=1000", "--set", "fps=100"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -246,7 +272,7 @@ def test_killed_run_keeps_the_frames_written(tmp_path):
 
 def test_flatten_gives_one_file_with_the_same_animation(tmp_path):
     out = tmp_path / "f"
-    assert main(["run", "--quiet", "--out", str(out), "--usd-chunk", "2", "--set", TINY[0],
+    assert main(["run", "skin_press", "--quiet", "--out", str(out), "--usd-chunk", "2", "--set", TINY[0],
                  "--set", TINY[1]]) == 0
     flat = tmp_path / "flat.usda"
     assert main(["usd-flatten", str(out / "skin_press.usdc"), str(flat)]) == 0

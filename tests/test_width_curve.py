@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from warp_cut.width_curve import analyse_width
+from warp_cut.width_curve import analyse_width, width_curve_metrics
 
 DT = 1e-3
 T = np.arange(0, 2001) * DT  # 0 .. 2 s
@@ -48,13 +48,16 @@ def test_a_curve_still_moving_has_not_settled_and_samples_before_the_cut_are_lef
     w = _rise_fall(T)
     w_cut = np.where(T < 0.05, np.nan, w)  # no incision yet
     a = analyse_width(T, w_cut)
-    assert a.peak_time == pytest.approx(0.2) and a.settling_time == pytest.approx(0.59, abs=DT)
+    # default band 2 %: 3 - 2 (t - 0.2) / 0.4 = 1.02 at t = 0.596 s
+    assert a.peak_time == pytest.approx(0.2) and a.settling_time == pytest.approx(0.596, abs=DT)
 
 
 def test_metrics_names_carry_units():
-    m = analyse_width(T, _rise_fall(T)).metrics()
-    assert set(m) == {"width_peak_m", "width_peak_time_s", "width_plateau_m",
-                      "width_settling_time_s", "width_band"}
+    m = width_curve_metrics(T, _rise_fall(T))
+    assert set(m) == {"peak_m", "peak_time_s", "plateau_m", "plateau_start_s",
+                      "settling_time_s", "band"}
+    assert m["band"] == 0.02 and m["settling_time_s"] == pytest.approx(0.596, abs=DT)
+    assert width_curve_metrics(T[:2], T[:2]) is None
 
 
 @pytest.mark.parametrize("t, w, kw, match", [

@@ -119,6 +119,9 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
     metrics["mesh"] = mesh_quality(sim)
     if sim.cutter is not None:
         metrics.update(sim.cutter.metrics())
+        from .width_curve import width_curve_metrics
+
+        metrics["width_curve"] = width_curve_metrics(cols["t"], cols["incision_width_m"])
     for obs in observers:
         obs.finish(metrics)
     return RunResult(metrics, cols, final_mesh(sim))

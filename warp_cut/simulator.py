@@ -159,8 +159,12 @@ class Simulator:
     @property
     def incision_controls(self) -> np.ndarray | None:
         """Control points [m] of the incision's cubic Bezier chain, (3 s + 1, 3) for s segments
-        (end points shared), or None while there is no incision."""
-        return None
+        (end points shared), or None while there is no incision (the latest incision's when a
+        cut has been restarted)."""
+        if self.cutter is None:
+            return None
+        curves = [inc.curve for inc in self.cutter.incisions if inc.curve is not None]
+        return curves[-1].control_points_flat() if curves else None
 
     @property
     def state(self) -> State:

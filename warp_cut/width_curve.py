@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["WidthCurve", "analyse_width"]
+__all__ = ["WidthCurve", "analyse_width", "width_curve_metrics"]
 
 
 @dataclass(frozen=True)
@@ -29,14 +29,23 @@ class WidthCurve:
     settling_time: float | None
     band: float
 
-    def metrics(self, prefix: str = "width_") -> dict:
+    def metrics(self) -> dict:
         """The features as metrics.json entries, with units in the names."""
-        return {f"{prefix}peak_m": self.peak_width, f"{prefix}peak_time_s": self.peak_time,
-                f"{prefix}plateau_m": self.plateau_width,
-                f"{prefix}settling_time_s": self.settling_time, f"{prefix}band": self.band}
+        return {"peak_m": self.peak_width, "peak_time_s": self.peak_time,
+                "plateau_m": self.plateau_width, "plateau_start_s": self.plateau_start,
+                "settling_time_s": self.settling_time, "band": self.band}
 
 
-def analyse_width(t, width, *, plateau_fraction: float = 0.2, band: float = 0.05) -> WidthCurve:
+def width_curve_metrics(t, width) -> dict | None:
+    """``width_curve`` entry of metrics.json: ``analyse_width(t, width).metrics()``, or None
+    when fewer than 3 samples have an incision."""
+    try:
+        return analyse_width(t, width).metrics()
+    except ValueError:
+        return None
+
+
+def analyse_width(t, width, *, plateau_fraction: float = 0.2, band: float = 0.02) -> WidthCurve:
     """Peak, plateau and settling time of ``width`` (k,) [m] sampled at ``t`` (k,) [s].
 
     Samples whose width is not finite (no incision yet) are left out; at least 3 must remain,
