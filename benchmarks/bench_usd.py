@@ -36,12 +36,19 @@ def _rss_mb() -> float:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
-def _patch(nodes: int) -> TissueModel:
+def _patch(nodes: int) -> SimpleNamespace:
+    """The attributes the exporter reads, as plain arrays the benchmark edits."""
     side = 0.002 * math.sqrt(nodes / 1.15)  # the patch generator's node density at 2 mm
-    return TissueModel.from_patch((side, side), 0.002, material=Material())
+    patch = TissueModel.from_patch((side, side), 0.002, material=Material())
+    n = patch.node_count
+    return SimpleNamespace(points=patch.points.copy(), triangles=patch.triangles.copy(),
+                           active=np.ones(n, bool), node_class=np.zeros(n, np.int8),
+                           node_count=n, topology_version=0)
 
 
 def run(nodes: int, frames: int, chunk: int, fps: float = 60.0) -> dict:
+    import pxr.Usd  # noqa: F401 - a one-off import cost, not part of writing
+
     model = _patch(nodes)
     rest = model.points.astype(np.float32)
     tmp = Path(tempfile.mkdtemp(prefix="bench_usd_"))

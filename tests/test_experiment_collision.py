@@ -43,8 +43,8 @@ def test_detection_against_the_analytic_contact(t0):
     # the per-step test: the end of the first step at or after the contact
     assert case.t_discrete == pytest.approx(math.ceil(t0 * 1000 - 1e-9) / 1000, abs=1e-12)
     assert 0 <= case.relative_error_pct("discrete") < 100 * 1e-3 / t0
-    # continuous detection: the exact time (node positions are float32 on the device)
-    assert case.t_ccd == pytest.approx(t0, abs=1e-9)
+    # continuous detection: the exact time, up to the float32 node coordinates (~1e-9 m / v)
+    assert case.t_ccd == pytest.approx(t0, abs=1e-7)
     assert case.point_ccd == pytest.approx(case.point_analytic, abs=1e-9)
     assert case.point_discrete == pytest.approx(case.point_analytic, abs=1e-9)
 
@@ -59,7 +59,9 @@ def test_cli_writes_table_csv_and_picture(tmp_path, capsys):
         (30, 0.01), (70, 0.01), (30, 0.02), (70, 0.02)]
     for r in rows:
         assert float(r["t_discrete_s"]) == pytest.approx(0.031, abs=1e-12)
-        assert abs(float(r["rel_err_ccd_pct"])) < 1e-5
+        # node coordinates are float32 on the device: half an ulp (~1e-9 m at 2 cm) over the
+        # speed bounds the continuous time's error
+        assert abs(float(r["t_ccd_s"]) - 0.0304) < 1e-9 / float(r["speed_m_s"])
     md = (out / "collision.md").read_text()
     assert "| 30 deg | 70 deg |" in md and "0.05 |" in md and "Continuous detection" in md
     assert (out / "collision_points.png").stat().st_size > 10_000

@@ -71,16 +71,16 @@ def analytic_first_contact(points, angle_deg: float, speed: float, t0: float, ra
     """Closed-form first contact of the axially sliding tool with static nodes (n, 3) at z = 0.
 
     Returns (tip at t = 0 (3,) [m], axis unit vector (3,), first-contact point (3,) [m]); the
-    first contact is at t0 by construction. The axis is aimed at the node nearest the patch
-    centre, shifted across the cut (in y) by the first of 0.05 r, 0.10 r, ... that leaves every
-    node at least ``MARGIN`` x r inside or outside the tool's reach, so no contact hinges on
-    rounding. Raises InputError if no shift does."""
+    first contact is at t0 by construction. The axis is aimed near the node nearest the patch
+    centre: 0.3 r from it along x and, across the cut (y), the first of 0.05 r, 0.10 r, ... that
+    leaves some node in reach and every node at least ``MARGIN`` x r inside or outside it, so
+    no contact hinges on rounding. Raises InputError if no shift does."""
     pts = np.asarray(points, dtype=np.float64)
     th = math.radians(angle_deg)
     a = np.array([math.cos(th), 0.0, math.sin(th)])
     centre = pts[np.argmin(np.linalg.norm(pts[:, :2] - pts[:, :2].mean(axis=0), axis=1))]
     for k in range(1, 20):
-        aim = centre + [0.0, 0.05 * k * radius, 0.0]
+        aim = centre + [0.3 * radius, 0.05 * k * radius, 0.0]
         rel = pts - aim
         s = rel @ a
         d = np.sqrt(np.maximum(np.einsum("ij,ij->i", rel, rel) - s * s, 0.0))
@@ -202,36 +202,51 @@ def _markdown(cases: list[CollisionCase], rate: float) -> str:
 def _plot(path: Path, cases: list[CollisionCase], rate: float) -> None:
     from .plots import new_figure, save_figure
 
-    fig = new_figure(11.0, 4.6)
+    fig = new_figure(11.0, 5.0)
     ax, bx = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
     markers = "os^DvP*X"
+    several_speeds = len({x.speed_m_s for x in cases}) > 1
+    largest = 0.0
     for k, c in enumerate(cases):
         m = markers[k % len(markers)]
-        label = f"{c.angle_deg:g} deg" + (f", {c.speed_m_s:g} m/s" if len({x.speed_m_s for x in cases}) > 1 else "")
+        label = f"{c.angle_deg:g} deg" + (f", {c.speed_m_s:g} m/s" if several_speeds else "")
         for which, fill in (("discrete", "none"), ("ccd", None)):
             p = getattr(c, f"point_{which}")
             if p is not None:
                 d = (p[:2] - c.point_analytic[:2]) * 1e6
+                largest = max(largest, float(np.abs(d).max()))
                 ax.plot(d[0], d[1], m, mfc=fill, ms=8, color=f"C{k}",
                         label=f"{label} ({'per step' if which == 'discrete' else 'continuous'})")
+    lim = max(100.0, 1.2 * largest)  # a node spacing's scale, as in the paper's figure
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_aspect("equal")
     ax.axhline(0, color="0.6", lw=0.8)
     ax.axvline(0, color="0.6", lw=0.8)
     ax.set_xlabel("x - x_analytic [um]")
     ax.set_ylabel("y - y_analytic [um]")
-    ax.set_title("(a) detected first-contact points (analytic point at the origin)")
-    ax.legend(fontsize=6, ncol=2)
+    ax.set_title(f"(a) detected points about the analytic one\n(largest offset {largest:.2g} um)")
+    ax.legend(fontsize=6, ncol=2, loc="upper right")
     x = np.arange(len(cases))
+    floor = 1e-12
     for off, which, label in ((-0.2, "discrete", f"per-step test at {rate:g} Hz"),
                               (0.2, "ccd", "continuous detection")):
-        e = [abs(c.relative_error_pct(which) or 0.0) for c in cases]
-        bx.bar(x + off, np.maximum(e, 1e-12), width=0.4, label=label)
+        e = np.array([abs(c.relative_error_pct(which)) if c.relative_error_pct(which) is not None
+                      else np.nan for c in cases])
+        bars = bx.bar(x + off, np.where(e > 0, e, np.nan), width=0.4, bottom=floor, label=label)
+        for xi, ei in zip(x + off, e):
+            if ei == 0:  # exact: no bar on a log scale
+                bx.text(xi, floor * 2, "0", ha="center", va="bottom", fontsize=8,
+                        color=bars.patches[0].get_facecolor())
     bx.axhline(PAPER_MEAN_RELATIVE_ERROR_PCT, color="k", ls="--", lw=1, label="paper (0.05 %)")
     bx.set_yscale("log")
-    bx.set_xticks(x, [f"{c.angle_deg:g}" for c in cases])
+    bx.set_ylim(floor, 1.0)
+    bx.set_xticks(x, [f"{c.angle_deg:g}" + (f"\n{c.speed_m_s:g} m/s" if several_speeds else "")
+                      for c in cases])
     bx.set_xlabel("cutting angle [deg]")
     bx.set_ylabel("|relative error| of the contact time [%]")
     bx.set_title("(b) first-contact time error")
-    bx.legend(fontsize=7)
+    bx.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
     save_figure(fig, path)
 
