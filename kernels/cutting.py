@@ -99,3 +99,47 @@ def capsule_spring_hits(
         k = wp.atomic_add(hit_count, 0, 1)
         if k < hits.shape[0]:
             hits[k] = s
+
+
+@wp.kernel
+def capsule_node_hits_among(
+    positions: wp.array(dtype=wp.vec3),
+    node_flags: wp.array(dtype=wp.int32),
+    candidates: wp.array(dtype=wp.int32),
+    a: wp.vec3,
+    b: wp.vec3,
+    radius: float,
+    hits: wp.array(dtype=wp.int32),
+    hit_count: wp.array(dtype=wp.int32),
+):
+    """As ``capsule_node_hits``, over a candidate list of node indices (one thread each)."""
+    i = candidates[wp.tid()]
+    if (node_flags[i] & 1) == 0:
+        return
+    if point_segment_distance(positions[i], a, b) < radius:
+        k = wp.atomic_add(hit_count, 0, 1)
+        if k < hits.shape[0]:
+            hits[k] = i
+
+
+@wp.kernel
+def capsule_spring_hits_among(
+    positions: wp.array(dtype=wp.vec3),
+    spring_indices: wp.array(dtype=wp.int32),
+    candidates: wp.array(dtype=wp.int32),
+    a: wp.vec3,
+    b: wp.vec3,
+    radius: float,
+    hits: wp.array(dtype=wp.int32),
+    hit_count: wp.array(dtype=wp.int32),
+):
+    """As ``capsule_spring_hits``, over a candidate list of spring slots (one thread each)."""
+    s = candidates[wp.tid()]
+    i = spring_indices[2 * s]
+    j = spring_indices[2 * s + 1]
+    if i < 0 or j < 0:
+        return
+    if segment_segment_distance(positions[i], positions[j], a, b) < radius:
+        k = wp.atomic_add(hit_count, 0, 1)
+        if k < hits.shape[0]:
+            hits[k] = s

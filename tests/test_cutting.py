@@ -9,7 +9,7 @@ import pytest
 import warp as wp
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from warp_cut import Simulator, TissueModel
+from warp_cut import Simulator, TissueModel, stable_time_step
 from warp_cut.classes import NodeClass, SpringClass
 from warp_cut.cutting import CutSettings
 from warp_cut.kernels.cutting import capsule_node_hits, capsule_spring_hits
@@ -117,6 +117,8 @@ def assert_valid(sim, where=""):
                                   model.spring_table.column("pairs").ravel().astype(np.int32))
     flags = dm.node_flags.numpy()[: model.node_count]
     np.testing.assert_array_equal(flags & 1, model.active.astype(np.int32))
+    # the stable step kept up to date edit by edit equals a full recomputation
+    assert sim.step_limit.step == pytest.approx(stable_time_step(model).step, rel=1e-9)
     return rep
 
 

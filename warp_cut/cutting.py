@@ -26,7 +26,7 @@ import warp as wp
 from .classes import NodeClass
 from .control import Tool
 from .errors import InputError
-from .incision import Incision
+from .incision import Incision, polyline_distance
 from .remesh import fill_hole
 from .stability import RowSums
 from .topology import NodePositions, TopologyEditor
@@ -179,6 +179,37 @@ class Cutter:
         n = np.linalg.norm(normal)
         return normal / n if n > 0 else np.array([0.0, 0.0, 1.0])
 
+    def _index_array(self, idx) -> wp.array:
+        return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.sim.device)
+
+    def _neighbourhood(self, a, b, radius) -> tuple[list[int], list[int]]:
+        """Candidate nodes and springs for the swept capsule a-b: the nodes within
+        radius + |b - a| + 3 spacings of a, found by walking the mesh outward from the
+        incision's anchor node, and the springs at them. The walk costs what the cut touches,
+        however large the tissue (the Stage 1 kernels then test only these)."""
+        inc, editor, model = self.current, self.editor, self.sim.model
+        x = self._positions_view()
+        reach = radius + float(np.linalg.norm(np.asarray(b) - a)) + 3.0 * self.spacing
+        anchor = inc.anchor
+        if anchor < 0 or not model.active[anchor]:
+            live = np.flatnonzero(model.active)  # once per incision, or after losing the anchor
+            anchor = int(live[np.argmin(np.linalg.norm(x[live] - a, axis=1))])
+        pairs = model.spring_table.column("pairs")
+        seen, frontier, nodes = {anchor}, [anchor], []
+        while frontier:
+            v = frontier.pop()
+            if np.linalg.norm(x[v] - a) > reach:
+                continue
+            nodes.append(v)
+            for slot in editor.node_springs[v]:
+                for u in pairs[slot]:
+                    u = int(u)
+                    if u not in seen:
+                        seen.add(u)
+                        frontier.append(u)
+        springs = sorted({slot for v in nodes for slot in editor.node_springs[v]})
+        return nodes, springs
+
     def _positions_view(self) -> np.ndarray:
         # zero-copy on the CPU; a copy from a GPU
         return self.sim.state.positions.numpy()[: self.sim.model.node_count]
@@ -187,7 +218,7 @@ class Cutter:
     def extend_incision(self, point) -> None:
         """One cut event: sweep from the incision's last contact point to ``point`` [m]
         (Stages 1-3), then mirror the edit on the device."""
-        from .kernels.cutting import capsule_node_hits, capsule_spring_hits
+        from .kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 
         sim, inc, editor = self.sim, self.current, self.editor
         if inc is None:
@@ -199,10 +230,13 @@ class Cutter:
             return  # the tool has not moved enough to extend the incision
         dm = sim.device_model
         t0 = time.perf_counter()
-        nodes = self._hits.run(capsule_node_hits, dm.node_count,
-                               [sim.state.positions, dm.node_flags, wp.vec3(*a), wp.vec3(*point), float(r)])
-        springs = self._hits.run(capsule_spring_hits, dm.spring_count,
-                                 [sim.state.positions, dm.spring_indices, wp.vec3(*a), wp.vec3(*point), float(r)])
+        near_nodes, near_springs = self._neighbourhood(a, point, r)
+        nodes = self._hits.run(capsule_node_hits_among, len(near_nodes), [
+            sim.state.positions, dm.node_flags, self._index_array(near_nodes),
+            wp.vec3(*a), wp.vec3(*point), float(r)])
+        springs = self._hits.run(capsule_spring_hits_among, len(near_springs), [
+            sim.state.positions, dm.spring_indices, self._index_array(near_springs),
+            wp.vec3(*a), wp.vec3(*point), float(r)])
         editor.begin()
         doomed = set(int(v) for v in nodes)
         if inc.end_node >= 0:
@@ -224,6 +258,11 @@ class Cutter:
         if editor.report.deleted_triangle_corners:
             result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions)
         report = editor.finish()
+        candidates = [v for v in list(report.new_nodes) + sorted(editor.touched_nodes)
+                      if sim.model.active[v]]
+        if candidates:
+            xs = positions[candidates]
+            inc.anchor = int(candidates[int(np.argmin(np.linalg.norm(xs - point, axis=1)))])
         t3 = time.perf_counter()
         self._apply(report, positions)
         t4 = time.perf_counter()
@@ -252,7 +291,7 @@ class Cutter:
             changed.update(int(v) for v in sim.model.link_table.column("pairs")[slot])
         changed |= {int(v) for v in report.deleted_nodes}
         self.row_sums.update(sorted(changed), self.editor, NodePositions(self._positions_view()))
-        sim.update_step_limit(self.row_sums.sums)
+        sim.update_step_limit(self.row_sums.limit())
 
     # ----------------------------------------------------------------- measures
     def incision_width(self) -> float:
@@ -267,22 +306,27 @@ class Cutter:
                 widths.extend(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1).tolist())
         return float(np.median(widths)) if widths else float("nan")
 
-    def lip_deviation(self) -> float:
-        """Largest distance [m] of a lip node from the tool's contact path (a polyline)."""
+    def lip_deviation(self, in_plane: bool = True) -> float:
+        """Largest distance [m] of a lip node from the tool's contact path (a polyline).
+
+        ``in_plane``: measured in the surface plane of each incision (the component along
+        its normal removed), i.e. the incision's shape as seen on the skin; otherwise in 3D.
+        """
         model = self.sim.model
         lips = np.flatnonzero(model.active & (model.node_class == NodeClass.LIP))
-        if not len(lips) or len(self.contact_path) < 1:
+        polylines = [inc for inc in self.incisions if len(inc.path) > 1]
+        if not len(lips) or not polylines:
             return float("nan")
-        polylines = [np.array(inc.path) for inc in self.incisions if len(inc.path) > 1]
         x = self._positions_view()[lips].astype(np.float64)
         best = np.full(len(lips), np.inf)
-        for poly in polylines:
-            a, b = poly[:-1], poly[1:]
-            ab = b - a
-            denom = np.maximum((ab * ab).sum(1), 1e-300)
-            t = np.clip(((x[:, None] - a[None]) * ab[None]).sum(2) / denom[None], 0, 1)
-            d = np.linalg.norm(x[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(1)
-            best = np.minimum(best, d)
+        for inc in polylines:
+            poly = np.array(inc.path)
+            pts = x
+            if in_plane:
+                n = inc.normal
+                pts = x - np.outer((x - poly[0]) @ n, n)
+                poly = poly - np.outer((poly - poly[0]) @ n, n)
+            best = np.minimum(best, polyline_distance(pts, poly))
         return float(best.max())
 
     def metrics(self) -> dict:
@@ -294,6 +338,7 @@ class Cutter:
         return {
             "cut": cut,
             "incision": {"length_m": length, "max_deviation_m": self.lip_deviation(),
+                         "max_deviation_3d_m": self.lip_deviation(in_plane=False),
                          "width_m": self.incision_width()},
             "latency_ms": self.latency_summary(),
         }

@@ -20,12 +20,12 @@ import numpy as np
 
 from .bezier import BezierChain, fit_chain
 
-__all__ = ["Incision"]
+__all__ = ["Incision", "polyline_distance"]
 
 _SAMPLES_PER_SEGMENT = 48
 
 
-def _polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+def polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     """Distance (m,) [m] of points (m, 3) to a polyline (k, 3)."""
     a, b = poly[:-1], poly[1:]
     ab = b - a
@@ -39,7 +39,7 @@ def _max_distance(points: np.ndarray, curve: BezierChain) -> float:
     (within ~1e-4 of the chord length of the true distance)."""
     s = curve.segment_count
     dense = curve.evaluate(np.linspace(0.0, s, 64 * s + 1))
-    return float(_polyline_distance(points, dense).max())
+    return float(polyline_distance(points, dense).max())
 
 
 class Incision:
@@ -69,6 +69,10 @@ class Incision:
         self.right: list[int] = []
         self.start_node = -1
         self.end_node = -1
+        self.sweep_radius = 0.0
+        """Radius of the swept circle [m] (set by the Cutter)."""
+        self.anchor = -1
+        """A live node near the tool, where the Cutter starts looking for what it cuts."""
 
     # ----------------------------------------------------------------- curve
     @property

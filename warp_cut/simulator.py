@@ -308,10 +308,9 @@ class Simulator:
         elif hasattr(self.solver, "topology_changed"):
             self.solver.topology_changed()
 
-    def update_step_limit(self, sums: np.ndarray | None = None) -> None:
-        """Recompute the stable step (from precomputed row sums if given) and the substeps."""
-        self.step_limit = stable_time_step(self.model, self.positions if sums is None else None,
-                                           sums=sums)
+    def update_step_limit(self, limit: StepLimit | None = None) -> None:
+        """Set the stable step (recomputed from the model if not given) and the substeps."""
+        self.step_limit = limit or stable_time_step(self.model, self.positions)
         self._choose_steps()
 
     def check_finite(self) -> None:

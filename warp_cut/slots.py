@@ -26,7 +26,7 @@ class SlotTable:
             raise ValueError(f"columns must have equal lengths, got {lengths}")
         self.count = lengths.pop()
         self.key = key
-        capacity = max(16, self.count)
+        capacity = self.count + max(256, self.count // 8)  # room for a cut without regrowing
         self._cols: dict[str, np.ndarray] = {}
         for name, values in columns.items():
             values = np.asarray(values)

@@ -96,23 +96,50 @@ def stable_time_step(model, positions: np.ndarray | None = None, *,
 
 
 class RowSums:
-    """Gershgorin row sums kept up to date across topology edits at the cost of the nodes an
-    edit touches (a full ``node_stiffness_sums`` is O(springs))."""
+    """Gershgorin row sums and per-node stable steps kept up to date across topology edits at
+    the cost of the nodes an edit touches (``node_stiffness_sums`` is O(springs)); the global
+    limit is then one reduction over the per-node steps."""
 
     def __init__(self, model, positions: np.ndarray | None = None):
         self.model = model
         self.sums = node_stiffness_sums(model, positions)
+        self.damped = np.full(model.node_count, np.inf)
+        self.undamped = np.full(model.node_count, np.inf)
+        self._node_steps(np.arange(model.node_count))
+
+    def _node_steps(self, nodes: np.ndarray) -> None:
+        model = self.model
+        R = self.sums[nodes]
+        m = model.masses[nodes]
+        D = model.damping[nodes]
+        ok = model.active[nodes] & ~model.pinned[nodes] & (R > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.damped[nodes] = np.where(ok, (D + np.sqrt(D * D + 4.0 * R * m)) / R, np.inf)
+            self.undamped[nodes] = np.where(ok, 2.0 * np.sqrt(m / R), np.inf)
+
+    def limit(self) -> StepLimit:
+        """The current StepLimit (as ``stable_time_step`` would compute it)."""
+        if not np.isfinite(self.damped).any():
+            return StepLimit(float("inf"), float("inf"), -1, 0.0)
+        node = int(np.argmin(self.damped))
+        k = int(np.argmin(self.undamped))
+        return StepLimit(float(self.damped[node]), float(self.undamped[k]), k,
+                         float(2.0 / self.undamped[k]))
 
     def update(self, nodes, editor, positions) -> None:
         """Recompute the rows of ``nodes`` from the editor's adjacency; ``positions`` is
         indexable by node ([m]) for the geometric factor."""
         model = self.model
-        if model.node_count > len(self.sums):
-            self.sums = np.concatenate([self.sums, np.zeros(model.node_count - len(self.sums))])
+        grow = model.node_count - len(self.sums)
+        if grow > 0:
+            self.sums = np.concatenate([self.sums, np.zeros(grow)])
+            self.damped = np.concatenate([self.damped, np.full(grow, np.inf)])
+            self.undamped = np.concatenate([self.undamped, np.full(grow, np.inf)])
         springs, links = model.spring_table, model.link_table
         pairs, rest, k = springs.column("pairs"), springs.column("rest_length"), springs.column("stiffness")
         lpairs, lforce, leps = links.column("pairs"), links.column("force"), links.column("smoothing")
         pinned = model.pinned
+        nodes = np.asarray(sorted(nodes), dtype=np.int64)
         for v in nodes:
             total = 0.0
             if model.active[v]:
@@ -127,3 +154,5 @@ class RowSums:
                     other = j if i == v else i
                     total += lforce[slot] / leps[slot] * (1.0 + (not pinned[other]))
             self.sums[v] = total
+        if len(nodes):
+            self._node_steps(nodes)
