@@ -34,7 +34,8 @@ class _Positions:
         self.frames = []
 
     def on_frame(self, sim, frame):
-        self.frames.append((frame, sim.time, sim.state.positions.numpy().copy()))
+        live = np.flatnonzero(sim.model.active)  # the device arrays may hold spare slots
+        self.frames.append((frame, sim.time, sim.state.positions.numpy()[live]))
 
     def finish(self, metrics):
         pass
