@@ -307,9 +307,11 @@ def _unit_tangents(q, cum):
     return t / np.linalg.norm(t, axis=1)[:, None]
 
 
-_D0, _D1 = np.array([-1.0, -2.0, 1.0, -1.0]), np.array([1.0, 1.0, -1.0, 2.0])  # P''(0)/6, P''(1)/6
+# P''(0)/6, P''(1)/6 of segment [J_i, J_i + h_i, J_i+1 - h_i+1, J_i+1] on (J_i, h_i, J_i+1, h_i+1);
+# _BEND is the quadratic form of the bending energy integral_0^1 |P''(a)|^2 da on those unknowns.
+_D0, _D1 = np.array([-1.0, -2.0, 1.0, -1.0]), np.array([1.0, 1.0, -1.0, 2.0])
 _BEND = np.kron(12.0 * (np.outer(_D0, _D0) + 0.5 * (np.outer(_D0, _D1) + np.outer(_D1, _D0))
-                        + np.outer(_D1, _D1)), np.eye(3))  # integral |P''|^2 on (J_i,h_i,J_i+1,h_i+1)
+                        + np.outer(_D1, _D1)), np.eye(3))
 
 
 def _solve_block_tridiagonal(diag, upper, rhs):
