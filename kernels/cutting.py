@@ -3,7 +3,8 @@
 Between two cut events the tool's cross-section circle (radius r) sweeps a capsule: all
 points within r of the segment a -> b. A node is inside when its distance to the segment is
 below r; a spring is touched when the distance between its segment and a -> b is below r.
-Hits are appended to a compact list with an atomic counter, so the host reads only the hits.
+The kernels test a candidate list (the host finds it by walking the mesh around the tool) and
+append hits to a compact list with an atomic counter, so the host reads only the hits.
 """
 
 import warp as wp
@@ -58,50 +59,6 @@ def segment_segment_distance(p0: wp.vec3, p1: wp.vec3, q0: wp.vec3, q1: wp.vec3)
 
 
 @wp.kernel
-def capsule_node_hits(
-    positions: wp.array(dtype=wp.vec3),
-    node_flags: wp.array(dtype=wp.int32),
-    a: wp.vec3,
-    b: wp.vec3,
-    radius: float,
-    hits: wp.array(dtype=wp.int32),
-    hit_count: wp.array(dtype=wp.int32),
-):
-    """One thread per node slot: active nodes within ``radius`` [m] of segment a-b are appended
-    to ``hits`` (capacity len(hits); hit_count (1,) may exceed it, then the caller retries)."""
-    i = wp.tid()
-    if (node_flags[i] & 1) == 0:
-        return
-    if point_segment_distance(positions[i], a, b) < radius:
-        k = wp.atomic_add(hit_count, 0, 1)
-        if k < hits.shape[0]:
-            hits[k] = i
-
-
-@wp.kernel
-def capsule_spring_hits(
-    positions: wp.array(dtype=wp.vec3),
-    spring_indices: wp.array(dtype=wp.int32),
-    a: wp.vec3,
-    b: wp.vec3,
-    radius: float,
-    hits: wp.array(dtype=wp.int32),
-    hit_count: wp.array(dtype=wp.int32),
-):
-    """One thread per spring slot: live springs whose segment comes within ``radius`` [m] of
-    segment a-b are appended to ``hits``."""
-    s = wp.tid()
-    i = spring_indices[2 * s]
-    j = spring_indices[2 * s + 1]
-    if i < 0 or j < 0:
-        return
-    if segment_segment_distance(positions[i], positions[j], a, b) < radius:
-        k = wp.atomic_add(hit_count, 0, 1)
-        if k < hits.shape[0]:
-            hits[k] = s
-
-
-@wp.kernel
 def capsule_node_hits_among(
     positions: wp.array(dtype=wp.vec3),
     node_flags: wp.array(dtype=wp.int32),
@@ -112,7 +69,9 @@ def capsule_node_hits_among(
     hits: wp.array(dtype=wp.int32),
     hit_count: wp.array(dtype=wp.int32),
 ):
-    """As ``capsule_node_hits``, over a candidate list of node indices (one thread each)."""
+    """One thread per candidate node index: active candidates within ``radius`` [m] of segment
+    a-b are appended to ``hits`` (capacity len(hits); hit_count (1,) may exceed it, then the
+    caller retries with a larger list)."""
     i = candidates[wp.tid()]
     if (node_flags[i] & 1) == 0:
         return
@@ -133,7 +92,8 @@ def capsule_spring_hits_among(
     hits: wp.array(dtype=wp.int32),
     hit_count: wp.array(dtype=wp.int32),
 ):
-    """As ``capsule_spring_hits``, over a candidate list of spring slots (one thread each)."""
+    """One thread per candidate spring slot: live springs whose segment comes within ``radius``
+    [m] of segment a-b are appended to ``hits``."""
     s = candidates[wp.tid()]
     i = spring_indices[2 * s]
     j = spring_indices[2 * s + 1]

@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from warp_cut import Simulator, TissueModel, stable_time_step
 from warp_cut.classes import NodeClass, SpringClass
 from warp_cut.cutting import CutSettings
-from warp_cut.kernels.cutting import capsule_node_hits, capsule_spring_hits
+from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh_checks import check_mesh, triangle_min_angles
 
 from conftest import DEVICE
@@ -34,8 +34,11 @@ def seg_seg_dist(p0, p1, q0, q1, samples=2001):
 
 
 def run_hits(kernel, dim, inputs):
+    """Launch a Stage 1 kernel over every index 0..dim-1 as its candidates."""
     hits = wp.zeros(4096, dtype=wp.int32, device=DEVICE)
     count = wp.zeros(1, dtype=wp.int32, device=DEVICE)
+    candidates = wp.array(np.arange(dim, dtype=np.int32), dtype=wp.int32, device=DEVICE)
+    inputs = inputs[:2] + [candidates] + inputs[2:]
     wp.launch(kernel, dim=dim, device=DEVICE, inputs=inputs + [hits, count])
     return set(hits.numpy()[: int(count.numpy()[0])].tolist())
 
@@ -47,7 +50,7 @@ def test_capsule_node_hits_match_oracle():
         a, b, r = rng.uniform(-1, 1, 3), rng.uniform(-1, 1, 3), rng.uniform(0.05, 0.5)
         flags = np.ones(300, np.int32)
         flags[:10] = 0  # deleted nodes are never hit
-        got = run_hits(capsule_node_hits, 300, [
+        got = run_hits(capsule_node_hits_among, 300, [
             wp.array(pts.astype(np.float32), dtype=wp.vec3, device=DEVICE),
             wp.array(flags, dtype=wp.int32, device=DEVICE), wp.vec3(*a), wp.vec3(*b), float(r)])
         d = seg_dist(pts.astype(np.float32).astype(float), a, b)
@@ -64,7 +67,7 @@ def test_capsule_spring_hits_match_brute_force():
     springs[:5] = -1  # dead slots
     for _ in range(5):
         a, b, r = rng.uniform(-1, 1, 3), rng.uniform(-1, 1, 3), rng.uniform(0.05, 0.4)
-        got = run_hits(capsule_spring_hits, len(springs), [
+        got = run_hits(capsule_spring_hits_among, len(springs), [
             wp.array(pts.astype(np.float32), dtype=wp.vec3, device=DEVICE),
             wp.array(springs.astype(np.int32).ravel(), dtype=wp.int32, device=DEVICE),
             wp.vec3(*a), wp.vec3(*b), float(r)])
@@ -82,13 +85,13 @@ def test_parallel_and_degenerate_segments():
     pts = np.array([[0, 0.5, 0], [1, 0.5, 0], [2, 2, 2], [2, 2, 2]], np.float32)
     springs = np.array([[0, 1], [2, 3]], np.int32)
     for r, want in ((0.6, {0}), (0.4, set())):
-        got = run_hits(capsule_spring_hits, 2, [
+        got = run_hits(capsule_spring_hits_among, 2, [
             wp.array(pts, dtype=wp.vec3, device=DEVICE),
             wp.array(springs.ravel(), dtype=wp.int32, device=DEVICE),
             wp.vec3(0.2, 0, 0), wp.vec3(0.8, 0, 0), float(r)])
         assert got == want
     # a zero-length sweep is a sphere
-    got = run_hits(capsule_node_hits, 4, [wp.array(pts, dtype=wp.vec3, device=DEVICE),
+    got = run_hits(capsule_node_hits_among, 4, [wp.array(pts, dtype=wp.vec3, device=DEVICE),
                                           wp.array(np.ones(4, np.int32), dtype=wp.int32, device=DEVICE),
                                           wp.vec3(0, 0.4, 0), wp.vec3(0, 0.4, 0), 0.2])
     assert got == {0}
