@@ -81,13 +81,14 @@ def cylinder_contact_mask(
         inside[i] = 0
 
 
-@wp.kernel
-def cylinder_push_out(
+@wp.func
+def push_out_node(
+    i: int,
     positions: wp.array(dtype=wp.vec3),
     velocities: wp.array(dtype=wp.vec3),
-    node_mass: wp.array(dtype=wp.float32),
-    node_damping: wp.array(dtype=wp.float32),
-    node_flags: wp.array(dtype=wp.int32),
+    mass: float,
+    damping: float,
+    flags: int,
     p0: wp.vec3,
     p1: wp.vec3,
     radius: float,
@@ -96,13 +97,10 @@ def cylinder_push_out(
     contact_count: wp.array(dtype=wp.int32),
     contact_position_sum: wp.array(dtype=wp.vec3),
 ):
-    """One thread per node: detect, push out, and accumulate the reaction on the tool.
+    """Detect node i, push it out, and accumulate the reaction on the tool (see the module doc).
 
-    tool_force (1,) [N], contact_count (1,), contact_position_sum (1,) [m]: accumulated,
-    the caller clears them. Pinned nodes in contact are counted but not moved.
+    Inactive nodes are skipped; pinned nodes in contact are counted but not moved.
     """
-    i = wp.tid()
-    flags = node_flags[i]
     if (flags & 1) == 0:
         return
     x = positions[i]
@@ -116,4 +114,36 @@ def cylinder_push_out(
     dx = target - x
     positions[i] = target
     velocities[i] = velocities[i] + dx / h
-    wp.atomic_sub(tool_force, 0, dx * ((node_mass[i] + h * node_damping[i]) / (h * h)))
+    wp.atomic_sub(tool_force, 0, dx * ((mass + h * damping) / (h * h)))
+
+
+@wp.func
+def tool_reach2(p0: wp.vec3, p1: wp.vec3, radius: float):
+    """Squared radius [m^2] of a sphere about (p0 + p1) / 2 holding the whole cylinder
+    (with a 0.1 % margin): a node outside it cannot be in contact, a cheap first test."""
+    return (0.25 * wp.length_sq(p1 - p0) + radius * radius) * 1.001
+
+
+@wp.kernel
+def cylinder_push_out(
+    positions: wp.array(dtype=wp.vec3),
+    velocities: wp.array(dtype=wp.vec3),
+    node_mass: wp.array(dtype=wp.float32),
+    node_damping: wp.array(dtype=wp.float32),
+    node_flags: wp.array(dtype=wp.int32),
+    tool_pose: wp.array(dtype=wp.vec3),
+    h: float,
+    tool_force: wp.array(dtype=wp.vec3),
+    contact_count: wp.array(dtype=wp.int32),
+    contact_position_sum: wp.array(dtype=wp.vec3),
+):
+    """One thread per node: detect, push out, and accumulate the reaction on the tool.
+
+    tool_pose (3,) vec3: p0 [m], p1 [m], (radius [m], 0, 0) - an array, so a captured
+    launch sees each new pose. tool_force (1,) [N], contact_count (1,), contact_position_sum
+    (1,) [m]: accumulated, the caller clears them.
+    """
+    i = wp.tid()
+    push_out_node(i, positions, velocities, node_mass[i], node_damping[i], node_flags[i],
+                  tool_pose[0], tool_pose[1], tool_pose[2][0], h, tool_force, contact_count,
+                  contact_position_sum)
