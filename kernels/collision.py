@@ -12,9 +12,11 @@ out along a fixed direction perpendicular to the axis.
 
 Response: the node is moved to the cylinder surface along (N - p) / d and its velocity gains
 the matching change (N' - N) / h. The contact force that makes this change inside the
-integrator's implicit-damping update is ``(m + h D) (N' - N) / h^2``; its equal and opposite
-reaction is summed over the nodes into the tool force [N] (in a held contact it equals the
-spring force the node exerts, whatever D is).
+integrator's update is ``I (N' - N) / h^2`` with the node's effective inertia I [kg]: m + h D
+for semi-implicit Euler with implicit damping, the diagonal of the system matrix for implicit
+Euler, m + h^2 (sum of its spring stiffnesses) for XPBD. Its equal and opposite reaction is
+summed over the nodes into the tool force [N] (in a held contact it equals the spring force
+the node exerts, whatever D is).
 """
 
 import warp as wp
@@ -86,8 +88,7 @@ def push_out_node(
     i: int,
     positions: wp.array(dtype=wp.vec3),
     velocities: wp.array(dtype=wp.vec3),
-    mass: float,
-    damping: float,
+    inertia: wp.vec3,
     flags: int,
     p0: wp.vec3,
     p1: wp.vec3,
@@ -114,7 +115,7 @@ def push_out_node(
     dx = target - x
     positions[i] = target
     velocities[i] = velocities[i] + dx / h
-    wp.atomic_sub(tool_force, 0, dx * ((mass + h * damping) / (h * h)))
+    wp.atomic_sub(tool_force, 0, wp.cw_mul(dx, inertia) / (h * h))
 
 
 @wp.func
@@ -133,17 +134,24 @@ def cylinder_push_out(
     node_flags: wp.array(dtype=wp.int32),
     tool_pose: wp.array(dtype=wp.vec3),
     h: float,
+    inertia: wp.array(dtype=wp.vec3),
     tool_force: wp.array(dtype=wp.vec3),
     contact_count: wp.array(dtype=wp.int32),
     contact_position_sum: wp.array(dtype=wp.vec3),
 ):
     """One thread per node: detect, push out, and accumulate the reaction on the tool.
 
+    inertia (node_count,) vec3 [kg]: the effective inertia per node, or an empty array for
+    m + h D.
+
     tool_pose (3,) vec3: p0 [m], p1 [m], (radius [m], 0, 0) - an array, so a captured
     launch sees each new pose. tool_force (1,) [N], contact_count (1,), contact_position_sum
     (1,) [m]: accumulated, the caller clears them.
     """
     i = wp.tid()
-    push_out_node(i, positions, velocities, node_mass[i], node_damping[i], node_flags[i],
+    effective = wp.vec3(node_mass[i] + h * node_damping[i])
+    if inertia.shape[0] > 0:
+        effective = inertia[i]
+    push_out_node(i, positions, velocities, effective, node_flags[i],
                   tool_pose[0], tool_pose[1], tool_pose[2][0], h, tool_force, contact_count,
                   contact_position_sum)

@@ -63,7 +63,8 @@ def _make(gravity: bool, collision: bool):
                 velocities_out[i] = v
             if wp.static(collision):
                 if radius > 0.0 and wp.length_sq(positions_out[i] - center) <= reach2:
-                    push_out_node(i, positions_out, velocities_out, m, damping, flags, p0, p1,
+                    push_out_node(i, positions_out, velocities_out, wp.vec3(m + h * damping),
+                                  flags, p0, p1,
                                   radius, h, tool_force, contact_count, contact_position_sum)
             forces[i] = wp.vec3(0.0)
             i += 1

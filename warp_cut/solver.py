@@ -11,9 +11,11 @@ from __future__ import annotations
 import warp as wp
 
 from .solvers.base import SolverBase
+from .solvers.implicit import ImplicitEulerSolver
 from .solvers.launches import LaunchSequence
+from .solvers.xpbd import XPBDSolver
 
-__all__ = ["SemiImplicitSolver", "INTEGRATORS"]
+__all__ = ["SemiImplicitSolver", "ImplicitEulerSolver", "XPBDSolver", "INTEGRATORS"]
 
 
 class SemiImplicitSolver(SolverBase):
@@ -51,5 +53,7 @@ class SemiImplicitSolver(SolverBase):
 
 INTEGRATORS = {
     "semi_implicit": SemiImplicitSolver,
+    "implicit_euler": ImplicitEulerSolver,
+    "xpbd": XPBDSolver,
 }
 """Integrator names a scene or Simulator accepts, and their solver classes."""
