@@ -155,3 +155,15 @@ def cylinder_push_out(
     push_out_node(i, positions, velocities, effective, node_flags[i],
                   tool_pose[0], tool_pose[1], tool_pose[2][0], h, tool_force, contact_count,
                   contact_position_sum)
+
+
+@wp.kernel
+def clear_tool_stats(
+    tool_force: wp.array(dtype=wp.vec3),
+    contact_count: wp.array(dtype=wp.int32),
+    contact_position_sum: wp.array(dtype=wp.vec3),
+):
+    """Zero the three (1,) tool statistics in one launch (one thread)."""
+    tool_force[0] = wp.vec3(0.0)
+    contact_count[0] = 0
+    contact_position_sum[0] = wp.vec3(0.0)

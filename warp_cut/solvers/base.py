@@ -58,7 +58,10 @@ class SolverBase:
         self.tool_pose = wp.zeros(3, dtype=wp.vec3, device=device)
         """p0 [m], p1 [m], (radius [m], 0, 0) of the current tool; radius 0 = no tool."""
         self._tool_host = np.zeros((3, 3), dtype=np.float32)
+        # on the CPU the array's memory is written through a numpy view (no copy call)
+        self._tool_view = self.tool_pose.numpy() if wp.get_device(device).is_cpu else None
         self._last_tool: Tool | None = None
+        self._clear_stats = None
         self._sequences: dict = {}
         self.topology_changed()
 
@@ -69,9 +72,13 @@ class SolverBase:
         return stable_time_step(model, positions)
 
     def clear_tool_stats(self) -> None:
-        self.tool_force.zero_()
-        self.contact_count.zero_()
-        self.contact_position_sum.zero_()
+        if self._clear_stats is None:
+            from ..kernels.collision import clear_tool_stats
+
+            self._clear_stats = wp.launch(
+                clear_tool_stats, dim=1, device=self.device, record_cmd=True,
+                inputs=[self.tool_force, self.contact_count, self.contact_position_sum])
+        self._clear_stats.launch()
 
     def topology_changed(self) -> None:
         """Forget recorded launches and re-derive the solver's own arrays from the model."""
@@ -138,10 +145,11 @@ class SolverBase:
         if not self.collision or tool is self._last_tool:
             return
         self._last_tool = tool
-        host = self._tool_host
+        host = self._tool_host if self._tool_view is None else self._tool_view
         if tool is None:
             host[2, 0] = 0.0
         else:
             host[0], host[1] = tool.p0, tool.p1
             host[2, 0] = tool.radius
-        self.tool_pose.assign(host)
+        if self._tool_view is None:
+            self.tool_pose.assign(host)
