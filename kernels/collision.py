@@ -125,6 +125,30 @@ def tool_reach2(p0: wp.vec3, p1: wp.vec3, radius: float):
     return (0.25 * wp.length_sq(p1 - p0) + radius * radius) * 1.001
 
 
+@wp.func
+def push_out_near_tool(
+    i: int,
+    positions: wp.array(dtype=wp.vec3),
+    velocities: wp.array(dtype=wp.vec3),
+    inertia: wp.vec3,
+    flags: int,
+    tool_pose: wp.array(dtype=wp.vec3),
+    h: float,
+    tool_force: wp.array(dtype=wp.vec3),
+    contact_count: wp.array(dtype=wp.int32),
+    contact_position_sum: wp.array(dtype=wp.vec3),
+):
+    """``push_out_node`` for the tool in ``tool_pose`` (p0, p1, (radius, 0, 0)), after the
+    cheap sphere test; radius 0 means no tool."""
+    p0 = tool_pose[0]
+    p1 = tool_pose[1]
+    radius = tool_pose[2][0]
+    if radius > 0.0:
+        if wp.length_sq(positions[i] - 0.5 * (p0 + p1)) <= tool_reach2(p0, p1, radius):
+            push_out_node(i, positions, velocities, inertia, flags, p0, p1, radius, h,
+                          tool_force, contact_count, contact_position_sum)
+
+
 @wp.kernel
 def cylinder_push_out(
     positions: wp.array(dtype=wp.vec3),

@@ -31,28 +31,30 @@ wp.set_module_options({"enable_backward": False})
 
 
 @wp.func
-def spring_block_apply(xi: wp.vec3, xj: wp.vec3, rest: float, k: float, p: wp.vec3):
-    """B p for the spring block B (see the module doc); zero for a zero-length spring."""
+def spring_block_geometry(xi: wp.vec3, xj: wp.vec3, rest: float):
+    """(u, a) of the spring block B = k [a I + (1 - a) u u^T]; a < 0 flags a zero-length
+    spring (no direction, B = 0)."""
     d = xj - xi
     length2 = wp.dot(d, d)
     if length2 < SPRING_MIN_LENGTH * SPRING_MIN_LENGTH:
-        return wp.vec3(0.0)
+        return wp.vec3(0.0), -1.0
     length = wp.sqrt(length2)
-    u = d / length
-    a = wp.max(0.0, 1.0 - rest / length)
+    return d / length, wp.max(0.0, 1.0 - rest / length)
+
+
+@wp.func
+def spring_block_apply(u: wp.vec3, a: float, k: float, p: wp.vec3):
+    """B p for the spring block B (see the module doc)."""
+    if a < 0.0:
+        return wp.vec3(0.0)
     return k * (a * p + (1.0 - a) * wp.dot(u, p) * u)
 
 
 @wp.func
-def spring_block_diagonal(xi: wp.vec3, xj: wp.vec3, rest: float, k: float):
+def spring_block_diagonal(u: wp.vec3, a: float, k: float):
     """The diagonal of the spring block B as a vec3."""
-    d = xj - xi
-    length2 = wp.dot(d, d)
-    if length2 < SPRING_MIN_LENGTH * SPRING_MIN_LENGTH:
+    if a < 0.0:
         return wp.vec3(0.0)
-    length = wp.sqrt(length2)
-    u = d / length
-    a = wp.max(0.0, 1.0 - rest / length)
     return k * (wp.vec3(a) + (1.0 - a) * wp.cw_mul(u, u))
 
 
@@ -84,9 +86,11 @@ def spring_matvec(
     chunk: int,
     count: int,
     ap: wp.array(dtype=wp.vec3),
+    diagonal: wp.array(dtype=wp.vec3),
 ):
     """ap += h^2 sum B (p_i - p_j) over springs (thread t: springs [t chunk, (t+1) chunk)).
-    Does nothing once iteration ``k_iter`` has converged (k_iter < 0: always runs)."""
+    Does nothing once iteration ``k_iter`` has converged; with k_iter < 0 (set-up) it always
+    runs and also adds h^2 diag(B) into ``diagonal`` at both ends."""
     if k_iter >= 0:
         if converged(cg, k_iter, tol2):
             return
@@ -96,35 +100,15 @@ def spring_matvec(
         i = spring_indices[2 * s]
         j = spring_indices[2 * s + 1]
         if i >= 0 and j >= 0:
-            y = h2 * spring_block_apply(positions[i], positions[j], spring_rest_length[s],
-                                        spring_stiffness[s], p[i] - p[j])
+            u, a = spring_block_geometry(positions[i], positions[j], spring_rest_length[s])
+            k = spring_stiffness[s]
+            y = h2 * spring_block_apply(u, a, k, p[i] - p[j])
             wp.atomic_add(ap, i, y)
             wp.atomic_sub(ap, j, y)
-        s += 1
-
-
-@wp.kernel
-def spring_diagonal(
-    positions: wp.array(dtype=wp.vec3),
-    spring_indices: wp.array(dtype=wp.int32),
-    spring_rest_length: wp.array(dtype=wp.float32),
-    spring_stiffness: wp.array(dtype=wp.float32),
-    h2: float,
-    chunk: int,
-    count: int,
-    diagonal: wp.array(dtype=wp.vec3),
-):
-    """diagonal += h^2 diag(B) at both ends of every live spring."""
-    s = wp.tid() * chunk
-    end = wp.min(s + chunk, count)
-    while s < end:
-        i = spring_indices[2 * s]
-        j = spring_indices[2 * s + 1]
-        if i >= 0 and j >= 0:
-            dg = h2 * spring_block_diagonal(positions[i], positions[j], spring_rest_length[s],
-                                            spring_stiffness[s])
-            wp.atomic_add(diagonal, i, dg)
-            wp.atomic_add(diagonal, j, dg)
+            if k_iter < 0:
+                dg = h2 * spring_block_diagonal(u, a, k)
+                wp.atomic_add(diagonal, i, dg)
+                wp.atomic_add(diagonal, j, dg)
         s += 1
 
 

@@ -8,13 +8,13 @@ motion down. Pinned and inactive nodes keep their position and have zero velocit
 The kernel also clears ``forces`` for the next substep, which saves a launch.
 
 One pass over the nodes does all per-node work of a substep: gravity (F += m g) and the
-tool (``collision.push_out_node`` on the new position) are folded in when a scene enables
+tool (``collision.push_out_near_tool`` on the new position) are folded in when a scene enables
 them, as separately compiled variants (``variants.specialised``).
 """
 
 import warp as wp
 
-from .collision import push_out_node, tool_reach2
+from .collision import push_out_near_tool
 from .variants import specialised
 
 wp.set_module_options({"enable_backward": False})
@@ -41,11 +41,6 @@ def _make(gravity: bool, collision: bool):
     ):
         i = wp.tid() * chunk
         end = wp.min(i + chunk, count)
-        p0 = tool_pose[0]
-        p1 = tool_pose[1]
-        radius = tool_pose[2][0]
-        center = 0.5 * (p0 + p1)
-        reach2 = tool_reach2(p0, p1, radius)
         while i < end:
             x = positions_in[i]
             flags = node_flags[i]
@@ -62,10 +57,9 @@ def _make(gravity: bool, collision: bool):
                 positions_out[i] = x + v * h
                 velocities_out[i] = v
             if wp.static(collision):
-                if radius > 0.0 and wp.length_sq(positions_out[i] - center) <= reach2:
-                    push_out_node(i, positions_out, velocities_out, wp.vec3(m + h * damping),
-                                  flags, p0, p1,
-                                  radius, h, tool_force, contact_count, contact_position_sum)
+                push_out_near_tool(i, positions_out, velocities_out, wp.vec3(m + h * damping),
+                                   flags, tool_pose, h, tool_force, contact_count,
+                                   contact_position_sum)
             forces[i] = wp.vec3(0.0)
             i += 1
 

@@ -22,7 +22,7 @@ residual links are explicit forces (their stiffness F / eps bounds the step, see
 
 import warp as wp
 
-from .collision import push_out_node, tool_reach2
+from .collision import push_out_near_tool
 from .springs import SPRING_MIN_LENGTH
 from .variants import specialised
 
@@ -149,11 +149,6 @@ def _make_finish(collision: bool):
     ):
         i = wp.tid() * chunk
         end = wp.min(i + chunk, count)
-        p0 = tool_pose[0]
-        p1 = tool_pose[1]
-        radius = tool_pose[2][0]
-        center = 0.5 * (p0 + p1)
-        reach2 = tool_reach2(p0, p1, radius)
         while i < end:
             flags = node_flags[i]
             m = node_mass[i]
@@ -161,10 +156,9 @@ def _make_finish(collision: bool):
             if free:
                 positions_out[i] = positions_out[i] + delta[i]
             if wp.static(collision):
-                if radius > 0.0 and wp.length_sq(positions_out[i] - center) <= reach2:
-                    inertia = wp.vec3(m + h * h * stiffness_sum[i])
-                    push_out_node(i, positions_out, velocities_out, inertia, flags, p0, p1,
-                                  radius, h, tool_force, contact_count, contact_position_sum)
+                push_out_near_tool(i, positions_out, velocities_out,
+                                   wp.vec3(m + h * h * stiffness_sum[i]), flags, tool_pose, h,
+                                   tool_force, contact_count, contact_position_sum)
             if free:
                 v = (positions_out[i] - positions_in[i]) / h
                 velocities_out[i] = v * (m / (m + h * node_damping[i]))

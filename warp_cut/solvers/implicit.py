@@ -86,15 +86,13 @@ class ImplicitEulerSolver(SolverBase):
         def stiffness_product(p, k_iter):
             seq.add(K.spring_matvec, self.threads(count),
                     [x_in, indices, rest, stiffness, p, h2, self.cg, k_iter, tol2, chunk, count,
-                     v["ap"]])
+                     v["ap"], v["diagonal"]])
             if links:
                 seq.add(K.link_matvec, m.link_count,
                         [x_in, m.link_indices, m.link_force, m.link_smoothing, p, h2, self.cg,
                          k_iter, tol2, v["ap"], v["diagonal"]])
 
-        stiffness_product(state_in.velocities, -1)
-        seq.add(K.spring_diagonal, self.threads(count),
-                [x_in, indices, rest, stiffness, h2, chunk, count, v["diagonal"]])
+        stiffness_product(state_in.velocities, -1)  # also accumulates the diagonal
         seq.add(K.cg_start, nt,
                 [state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags, h,
                  chunk, n, v["ap"], v["diagonal"], v["x"], v["r"], v["z"], v["p"],
