@@ -80,10 +80,10 @@ def run(repeats: int = 5, quick: bool = False):
         if newton_missing is None:
             nt = NewtonSemiImplicit(model)
             fns["newton"] = lambda: nt.step(h)
-        calls = {name: max(1, int(2e5 // S)) for name in fns}
-        calls["implicit_euler"] = max(1, calls["implicit_euler"] // 20)
-        calls["numpy"] = max(1, calls["numpy"] // 10)
-        calls["newton"] = max(1, calls["numpy"])
+        calls = {name: max(3, int(2e5 // S)) for name in fns}
+        calls["implicit_euler"] = max(2, calls["implicit_euler"] // 20)
+        calls["numpy"] = max(2, calls["numpy"] // 10)
+        calls["newton"] = calls["numpy"]
         times = interleaved(fns, calls, repeats)
         warp = times["warp"]
         row = {"mesh": label, "nodes": N, "springs": S}

@@ -21,13 +21,15 @@ def timed(fn, calls: int) -> float:
 
 
 def interleaved(fns: dict, calls: dict, repeats: int) -> dict:
-    """Time each fn ``repeats`` times, interleaved (so machine load hits all alike).
-    Returns name -> array (repeats,) of seconds per call."""
-    for name, fn in fns.items():  # warm-up: compile, record, caches
+    """Time each fn ``repeats`` times, interleaved (so machine load hits all alike). Each
+    timing follows one untimed call, so no implementation pays for the caches the previous
+    one left cold. Returns name -> array (repeats,) of seconds per call."""
+    for name, fn in fns.items():  # compile, record
         fn()
     out = {name: [] for name in fns}
     for _ in range(repeats):
         for name, fn in fns.items():
+            fn()
             out[name].append(timed(fn, calls[name]))
     return {name: np.array(v) for name, v in out.items()}
 

@@ -37,15 +37,22 @@ def main(argv=None) -> int:
     for name, module in parts:
         print(f"{name}:", flush=True)
         module.run(quick=quick)
+    write_summary(time.perf_counter() - start)
+    print(f"results in {RESULTS}")
+    return 0
+
+
+def write_summary(seconds: float | None = None) -> None:
+    """results/summary.md: the machine and every benchmark's markdown, in one page."""
     device = wp.get_device("cpu")
     summary = [f"Machine: {platform.processor() or platform.machine()}, {device.name}, "
-               f"Python {platform.python_version()}, Warp {wp.__version__}.",
-               f"Total benchmark time: {time.perf_counter() - start:.0f} s.", ""]
+               f"Python {platform.python_version()}, Warp {wp.__version__}."]
+    if seconds is not None:
+        summary.append(f"Total benchmark time: {seconds:.0f} s.")
+    summary.append("")
     for md in ("throughput", "realtime", "pareto_hanging_sheet", "stable_step", "compile"):
         summary.append((RESULTS / f"{md}.md").read_text())
     (RESULTS / "summary.md").write_text("\n".join(summary))
-    print(f"results in {RESULTS}")
-    return 0
 
 
 if __name__ == "__main__":
