@@ -12,9 +12,11 @@ out along a fixed direction perpendicular to the axis.
 
 Response: the node is moved to the cylinder surface along (N - p) / d and its velocity gains
 the matching change (N' - N) / h. The contact force that makes this change inside the
-integrator's implicit-damping update is ``(m + h D) (N' - N) / h^2``; its equal and opposite
-reaction is summed over the nodes into the tool force [N] (in a held contact it equals the
-spring force the node exerts, whatever D is).
+integrator's update is ``I (N' - N) / h^2`` with the node's effective inertia I [kg]: m + h D
+for semi-implicit Euler with implicit damping, the diagonal of the system matrix for implicit
+Euler, m + h^2 (sum of its spring stiffnesses) for XPBD. Its equal and opposite reaction is
+summed over the nodes into the tool force [N] (in a held contact it equals the spring force
+the node exerts, whatever D is).
 """
 
 import warp as wp
@@ -81,13 +83,13 @@ def cylinder_contact_mask(
         inside[i] = 0
 
 
-@wp.kernel
-def cylinder_push_out(
+@wp.func
+def push_out_node(
+    i: int,
     positions: wp.array(dtype=wp.vec3),
     velocities: wp.array(dtype=wp.vec3),
-    node_mass: wp.array(dtype=wp.float32),
-    node_damping: wp.array(dtype=wp.float32),
-    node_flags: wp.array(dtype=wp.int32),
+    inertia: wp.vec3,
+    flags: int,
     p0: wp.vec3,
     p1: wp.vec3,
     radius: float,
@@ -96,13 +98,10 @@ def cylinder_push_out(
     contact_count: wp.array(dtype=wp.int32),
     contact_position_sum: wp.array(dtype=wp.vec3),
 ):
-    """One thread per node: detect, push out, and accumulate the reaction on the tool.
+    """Detect node i, push it out, and accumulate the reaction on the tool (see the module doc).
 
-    tool_force (1,) [N], contact_count (1,), contact_position_sum (1,) [m]: accumulated,
-    the caller clears them. Pinned nodes in contact are counted but not moved.
+    Inactive nodes are skipped; pinned nodes in contact are counted but not moved.
     """
-    i = wp.tid()
-    flags = node_flags[i]
     if (flags & 1) == 0:
         return
     x = positions[i]
@@ -116,4 +115,79 @@ def cylinder_push_out(
     dx = target - x
     positions[i] = target
     velocities[i] = velocities[i] + dx / h
-    wp.atomic_sub(tool_force, 0, dx * ((node_mass[i] + h * node_damping[i]) / (h * h)))
+    wp.atomic_sub(tool_force, 0, wp.cw_mul(dx, inertia) / (h * h))
+
+
+@wp.func
+def tool_reach2(p0: wp.vec3, p1: wp.vec3, radius: float):
+    """Squared radius [m^2] of a sphere about (p0 + p1) / 2 holding the whole cylinder
+    (with a 0.1 % margin): a node outside it cannot be in contact, a cheap first test."""
+    return (0.25 * wp.length_sq(p1 - p0) + radius * radius) * 1.001
+
+
+@wp.func
+def push_out_near_tool(
+    i: int,
+    positions: wp.array(dtype=wp.vec3),
+    velocities: wp.array(dtype=wp.vec3),
+    inertia: wp.vec3,
+    flags: int,
+    tool_pose: wp.array(dtype=wp.vec3),
+    h: float,
+    tool_force: wp.array(dtype=wp.vec3),
+    contact_count: wp.array(dtype=wp.int32),
+    contact_position_sum: wp.array(dtype=wp.vec3),
+):
+    """``push_out_node`` for the tool in ``tool_pose`` (p0, p1, (radius, 0, 0)), after the
+    cheap sphere test; radius 0 means no tool."""
+    p0 = tool_pose[0]
+    p1 = tool_pose[1]
+    radius = tool_pose[2][0]
+    if radius > 0.0:
+        if wp.length_sq(positions[i] - 0.5 * (p0 + p1)) <= tool_reach2(p0, p1, radius):
+            push_out_node(i, positions, velocities, inertia, flags, p0, p1, radius, h,
+                          tool_force, contact_count, contact_position_sum)
+
+
+@wp.kernel
+def cylinder_push_out(
+    positions: wp.array(dtype=wp.vec3),
+    velocities: wp.array(dtype=wp.vec3),
+    node_mass: wp.array(dtype=wp.float32),
+    node_damping: wp.array(dtype=wp.float32),
+    node_flags: wp.array(dtype=wp.int32),
+    tool_pose: wp.array(dtype=wp.vec3),
+    h: float,
+    inertia: wp.array(dtype=wp.vec3),
+    tool_force: wp.array(dtype=wp.vec3),
+    contact_count: wp.array(dtype=wp.int32),
+    contact_position_sum: wp.array(dtype=wp.vec3),
+):
+    """One thread per node: detect, push out, and accumulate the reaction on the tool.
+
+    inertia (node_count,) vec3 [kg]: the effective inertia per node, or an empty array for
+    m + h D.
+
+    tool_pose (3,) vec3: p0 [m], p1 [m], (radius [m], 0, 0) - an array, so a captured
+    launch sees each new pose. tool_force (1,) [N], contact_count (1,), contact_position_sum
+    (1,) [m]: accumulated, the caller clears them.
+    """
+    i = wp.tid()
+    effective = wp.vec3(node_mass[i] + h * node_damping[i])
+    if inertia.shape[0] > 0:
+        effective = inertia[i]
+    push_out_node(i, positions, velocities, effective, node_flags[i],
+                  tool_pose[0], tool_pose[1], tool_pose[2][0], h, tool_force, contact_count,
+                  contact_position_sum)
+
+
+@wp.kernel
+def clear_tool_stats(
+    tool_force: wp.array(dtype=wp.vec3),
+    contact_count: wp.array(dtype=wp.int32),
+    contact_position_sum: wp.array(dtype=wp.vec3),
+):
+    """Zero the three (1,) tool statistics in one launch (one thread)."""
+    tool_force[0] = wp.vec3(0.0)
+    contact_count[0] = 0
+    contact_position_sum[0] = wp.vec3(0.0)

@@ -1,41 +1,80 @@
 """Semi-implicit (symplectic) Euler with implicit linear damping (paper Eq. 1).
 
-    v' = (v + h F / m) / (1 + h D / m),    x' = x + h v'
+    v' = (v + h F / m) / (1 + h D / m) = (m v + h F) / (m + h D),    x' = x + h v'
 
 The damping term ``-D v`` is taken at the new velocity, so a large D (the paper's
 3 N s/m on milligram nodes) does not force a microscopic step: it only slows the
 motion down. Pinned and inactive nodes keep their position and have zero velocity.
 The kernel also clears ``forces`` for the next substep, which saves a launch.
+
+One pass over the nodes does all per-node work of a substep: gravity (F += m g) and the
+tool (``collision.push_out_near_tool`` on the new position) are folded in when a scene enables
+them, as separately compiled variants (``variants.specialised``).
 """
 
 import warp as wp
 
+from .collision import push_out_near_tool
+from .variants import specialised
+
 wp.set_module_options({"enable_backward": False})
 
 
-@wp.kernel
-def integrate_semi_implicit(
-    positions_in: wp.array(dtype=wp.vec3),
-    velocities_in: wp.array(dtype=wp.vec3),
-    forces: wp.array(dtype=wp.vec3),
-    node_mass: wp.array(dtype=wp.float32),
-    node_damping: wp.array(dtype=wp.float32),
-    node_flags: wp.array(dtype=wp.int32),
-    h: float,
-    positions_out: wp.array(dtype=wp.vec3),
-    velocities_out: wp.array(dtype=wp.vec3),
-):
-    """One thread per node. node_damping D [N s/m]; h [s]; forces [N], cleared on exit."""
-    i = wp.tid()
-    x = positions_in[i]
-    flags = node_flags[i]
-    if (flags & 1) == 0 or (flags & 2) != 0:
-        positions_out[i] = x
-        velocities_out[i] = wp.vec3(0.0)
-        forces[i] = wp.vec3(0.0)
-        return
-    m = node_mass[i]
-    v = (velocities_in[i] + forces[i] * (h / m)) / (1.0 + h * node_damping[i] / m)
-    positions_out[i] = x + v * h
-    velocities_out[i] = v
-    forces[i] = wp.vec3(0.0)
+def _make(gravity: bool, collision: bool):
+    def integrate_semi_implicit(
+        positions_in: wp.array(dtype=wp.vec3),
+        velocities_in: wp.array(dtype=wp.vec3),
+        forces: wp.array(dtype=wp.vec3),
+        node_mass: wp.array(dtype=wp.float32),
+        node_damping: wp.array(dtype=wp.float32),
+        node_flags: wp.array(dtype=wp.int32),
+        gravity_accel: wp.vec3,
+        tool_pose: wp.array(dtype=wp.vec3),
+        h: float,
+        chunk: int,
+        count: int,
+        positions_out: wp.array(dtype=wp.vec3),
+        velocities_out: wp.array(dtype=wp.vec3),
+        tool_force: wp.array(dtype=wp.vec3),
+        contact_count: wp.array(dtype=wp.int32),
+        contact_position_sum: wp.array(dtype=wp.vec3),
+    ):
+        i = wp.tid() * chunk
+        end = wp.min(i + chunk, count)
+        while i < end:
+            x = positions_in[i]
+            flags = node_flags[i]
+            m = node_mass[i]
+            damping = node_damping[i]
+            if (flags & 1) == 0 or (flags & 2) != 0:
+                positions_out[i] = x
+                velocities_out[i] = wp.vec3(0.0)
+            else:
+                f = forces[i]
+                if wp.static(gravity):
+                    f = f + gravity_accel * m
+                v = (velocities_in[i] * m + f * h) / (m + h * damping)
+                positions_out[i] = x + v * h
+                velocities_out[i] = v
+            if wp.static(collision):
+                push_out_near_tool(i, positions_out, velocities_out, wp.vec3(m + h * damping),
+                                   flags, tool_pose, h, tool_force, contact_count,
+                                   contact_position_sum)
+            forces[i] = wp.vec3(0.0)
+            i += 1
+
+    return integrate_semi_implicit
+
+
+def integrate_kernel(gravity: bool, collision: bool):
+    """The semi-implicit node kernel with gravity and the tool on or off.
+
+    Arguments, in order: positions_in, velocities_in (node_count,) vec3 [m], [m/s];
+    forces (node_count,) vec3 [N], cleared on exit; node_mass [kg], node_damping D [N s/m]
+    (node_count,) float32; node_flags (node_count,) int32; gravity_accel vec3 [m/s^2];
+    tool_pose (3,) vec3: p0, p1 [m], (radius [m], 0, 0), radius 0 = no tool; h [s]; chunk,
+    count (thread t handles nodes [t chunk, min((t + 1) chunk, count))); outputs
+    positions_out, velocities_out; tool_force (1,) vec3 [N], contact_count (1,) int32,
+    contact_position_sum (1,) vec3 [m], accumulated.
+    """
+    return specialised("integrate", _make, gravity=bool(gravity), collision=bool(collision))

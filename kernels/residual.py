@@ -8,12 +8,21 @@ direction is regularised with a smoothing length ``eps`` [m]:
     f_i = F * d / sqrt(|d|^2 + eps^2),   d = x_j - x_i,   f_j = -f_i
 
 so the magnitude is F for |d| >> eps and falls smoothly to 0 at |d| = 0. Its largest
-stiffness is F / eps, which the stable-step estimate uses.
+stiffness is F / eps, which the stable-step estimate uses. Its Jacobian
+``df_i/dx_j = F / r (I - d d^T / r^2)`` with r = sqrt(|d|^2 + eps^2) is symmetric positive
+definite, which the implicit integrator uses as is.
 """
 
 import warp as wp
 
 wp.set_module_options({"enable_backward": False})
+
+
+@wp.func
+def residual_force(xi: wp.vec3, xj: wp.vec3, magnitude: float, eps: float):
+    """Force [N] of a residual link on its first node."""
+    d = xj - xi
+    return d * (magnitude / wp.sqrt(wp.dot(d, d) + eps * eps))
 
 
 @wp.kernel
@@ -34,8 +43,6 @@ def residual_link_forces(
     j = link_indices[2 * k + 1]
     if i < 0 or j < 0:
         return
-    d = positions[j] - positions[i]
-    eps = link_smoothing[k]
-    f = d * (link_force[k] / wp.sqrt(wp.dot(d, d) + eps * eps))
+    f = residual_force(positions[i], positions[j], link_force[k], link_smoothing[k])
     wp.atomic_add(forces, i, f)
     wp.atomic_sub(forces, j, f)

@@ -74,7 +74,8 @@ def push(points, mass, damping, p0, p1, r, h, flags=None):
         x, v, wp.array(np.full(n, mass, np.float32), dtype=wp.float32, device=DEVICE),
         wp.array(np.full(n, damping, np.float32), dtype=wp.float32, device=DEVICE),
         wp.array(flags, dtype=wp.int32, device=DEVICE),
-        wp.vec3(*p0), wp.vec3(*p1), float(r), float(h), force, count, psum])
+        wp.array(np.array([p0, p1, [r, 0, 0]], np.float32), dtype=wp.vec3, device=DEVICE),
+        float(h), wp.zeros(0, dtype=wp.vec3, device=DEVICE), force, count, psum])
     return x.numpy(), v.numpy(), force.numpy()[0], int(count.numpy()[0]), psum.numpy()[0]
 
 

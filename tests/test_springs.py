@@ -16,7 +16,7 @@ def launch(x, springs, L0, k):
         wp.array(np.asarray(x, np.float32), dtype=wp.vec3, device=DEVICE),
         wp.array(np.asarray(springs, np.int32).ravel(), dtype=wp.int32, device=DEVICE),
         wp.array(np.asarray(L0, np.float32), dtype=wp.float32, device=DEVICE),
-        wp.array(np.asarray(k, np.float32), dtype=wp.float32, device=DEVICE), f])
+        wp.array(np.asarray(k, np.float32), dtype=wp.float32, device=DEVICE), 1, len(L0), f])
     return f.numpy().astype(np.float64)
 
 

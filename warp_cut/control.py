@@ -59,15 +59,17 @@ class ToolPath:
 
     def endpoints_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(p0, p1) [m] at time t [s]."""
+        # linear between keyframes, held outside (np.interp's rule), one lookup for all six
         times = self.times
-        if t <= times[0]:
+        if t <= times[0] or len(times) == 1:
             return self.p0[0].copy(), self.p1[0].copy()
         if t >= times[-1]:
             return self.p0[-1].copy(), self.p1[-1].copy()
         k = int(np.searchsorted(times, t, side="right")) - 1
         w = (t - times[k]) / (times[k + 1] - times[k])
-        return ((1.0 - w) * self.p0[k] + w * self.p0[k + 1],
-                (1.0 - w) * self.p1[k] + w * self.p1[k + 1])
+        p0 = self.p0[k] + w * (self.p0[k + 1] - self.p0[k])
+        p1 = self.p1[k] + w * (self.p1[k + 1] - self.p1[k])
+        return p0, p1
 
     def pose_at(self, t: float) -> Tool:
         """The Tool at time t [s] (keyframes were validated once, so no checks here)."""

@@ -291,7 +291,8 @@ class Cutter:
             changed.update(int(v) for v in sim.model.link_table.column("pairs")[slot])
         changed |= {int(v) for v in report.deleted_nodes}
         self.row_sums.update(sorted(changed), self.editor, NodePositions(self._positions_view()))
-        sim.update_step_limit(self.row_sums.limit())
+        # the explicit step's limit is kept up to date node by node; other integrators compute theirs
+        sim.update_step_limit(self.row_sums.limit() if sim.integrator == "semi_implicit" else None)
 
     # ----------------------------------------------------------------- measures
     def incision_width(self) -> float:

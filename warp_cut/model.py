@@ -145,13 +145,20 @@ class TissueModel:
     def springs(self) -> np.ndarray:
         return self.spring_table.live("pairs")
 
-    @property
-    def rest_lengths(self) -> np.ndarray:
-        return self.spring_table.live("rest_length")
+    def _live_spring_column(name):  # noqa: N805 - property factory used in the class body
+        def get(self):
+            return self.spring_table.live(name)
 
-    @property
-    def stiffness(self) -> np.ndarray:
-        return self.spring_table.live("stiffness")
+        def put(self, value):
+            table = self.spring_table
+            table.set(name, table.live_slots(), np.broadcast_to(value, (table.live_count,)))
+
+        return property(get, put, doc=f"Spring column '{name}' over live springs (a copy; "
+                                      "assigning writes the live slots).")
+
+    rest_lengths = _live_spring_column("rest_length")
+    stiffness = _live_spring_column("stiffness")
+    del _live_spring_column
 
     @property
     def spring_class(self) -> np.ndarray:

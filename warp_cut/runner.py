@@ -13,7 +13,7 @@ import numpy as np
 from .io import write_csv, write_json, write_ply
 from .scene import Scene
 from .simulator import Simulator
-from .stability import stable_time_step
+from .solver import INTEGRATORS
 
 __all__ = ["RunResult", "prepare_simulation", "run_scene", "write_outputs", "TIMESERIES_COLUMNS"]
 
@@ -40,7 +40,7 @@ def prepare_simulation(scene: Scene):
     frame_dt = 1.0 / scene.fps
     dt = scene.solver["dt"]
     if dt == "auto":
-        limit = stable_time_step(model).step
+        limit = INTEGRATORS[scene.solver["integrator"]].step_limit(model).step
         target = scene.solver["safety"] * limit if math.isfinite(limit) else frame_dt
         substeps = 1 if scene.solver["substeps"] == "auto" else scene.solver["substeps"]
         target *= substeps

@@ -32,7 +32,7 @@ _SCHEMA: dict[str, set[str]] = {
          "cutting"},
     "tissue": {"kind", "size", "spacing", "path", "scale", "thickness", "density", "pinned",
                "uniform_mass"},
-    "material": {"stiffness", "damping", "youngs_modulus", "residual_strain"},
+    "material": {"stiffness", "stiffness_model", "damping", "youngs_modulus", "residual_strain"},
     "physics": {"gravity", "residual_stress", "collision", "cutting"},
     "solver": {"integrator", "dt", "substeps", "safety"},
     "tool": {"radius", "length", "keyframes"},
@@ -133,6 +133,8 @@ class Scene:
     cutting: dict
     data: dict = field(repr=False)
     path: Path | None = None
+    stiffness_model: str = "constant"
+    """``"constant"`` (every spring K) or ``"material"`` (from E and thickness, see stiffness.py)."""
 
     @property
     def frame_count(self) -> int:
@@ -166,6 +168,12 @@ class Scene:
                 raise SceneError(self.path, "tissue.pinned.indices",
                                  f"must be node indices in [0, {model.node_count - 1}]")
             model.pinned[idx] = True
+        if self.stiffness_model == "material":
+            from .stiffness import material_stiffness
+
+            model.stiffness = material_stiffness(
+                model.points, model.triangles, model.springs, self.material.youngs_modulus,
+                self.material.thickness, fallback=self.material.stiffness)
         return model
 
     def tool_path(self) -> ToolPath | None:
@@ -234,6 +242,10 @@ def parse_scene(data: dict, path=None) -> Scene:
         density=r.number(tis_t, "tissue", "density", defaults.density, low=0, high=1e5,
                          low_open=True),
     )
+    from .stiffness import STIFFNESS_MODELS
+
+    stiffness_model = r.choice(mat_t, "material", "stiffness_model", "constant",
+                               set(STIFFNESS_MODELS))
     kind = r.choice(tis_t, "tissue", "kind", "patch", {"patch", "mesh"})
     tissue: dict[str, Any] = {"kind": kind, "scale": 1.0, "uniform_mass": None}
     if kind == "patch":
@@ -355,8 +367,8 @@ def parse_scene(data: dict, path=None) -> Scene:
         tool = {"radius": radius, "length": length if length is not None else max(lengths),
                 "keyframes": frames}
     return Scene(name=name, duration=duration, fps=fps, device=device, material=material,
-                 tissue=tissue, physics=physics, solver=solver, tool=tool, cutting=cutting, data=data,
-                 path=Path(path) if path else None)
+                 tissue=tissue, physics=physics, solver=solver, tool=tool, cutting=cutting,
+                 data=data, path=Path(path) if path else None, stiffness_model=stiffness_model)
 
 
 def apply_overrides(data: dict, overrides: list[str], path=None) -> dict:

@@ -15,7 +15,7 @@ from .errors import InputError, SimulationUnstable, ToolStartsInside
 from .model import TissueModel
 from .solver import INTEGRATORS
 from .state import State
-from .stability import StepLimit, stable_time_step
+from .stability import StepLimit
 
 __all__ = ["Simulator", "DEFAULT_GRAVITY"]
 
@@ -34,7 +34,8 @@ class Simulator:
             for ``safety`` x the stable step with one substep.
         substeps: integration substeps per step, or ``"auto"``: the fewest that keep each
             substep within ``safety`` x the stable step.
-        integrator: one of ``INTEGRATORS`` (``"semi_implicit"``).
+        integrator: one of ``INTEGRATORS``: ``"semi_implicit"`` (default), ``"implicit_euler"``,
+            ``"xpbd"`` (see README, Speed and accuracy).
         gravity: (3,) [m/s^2] or None to leave gravity out (neither launched nor compiled).
         residual_stress, collision: enable the residual links and the tool test.
         safety: fraction of the computed stable step used by the automatic choices.
@@ -103,11 +104,15 @@ class Simulator:
     def _rebuild(self) -> None:
         """Derive device arrays, solver, stable step and substeps from the model."""
         self.device_model = DeviceModel(self.model, self.device)
-        self.solver = INTEGRATORS[self.integrator](
+        self.solver = self._make_solver()
+        # per-integrator limit: infinite for the unconditionally stable integrators
+        self.step_limit: StepLimit = INTEGRATORS[self.integrator].step_limit(self.model, self.positions)
+        self._choose_steps()
+
+    def _make_solver(self):
+        return INTEGRATORS[self.integrator](
             self.device_model, gravity=self.gravity,
             residual_stress=self.residual_stress, collision=self.collision)
-        self.step_limit: StepLimit = stable_time_step(self.model, self.positions)
-        self._choose_steps()
 
     def _choose_steps(self) -> None:
         limit = self.step_limit.step
@@ -302,15 +307,13 @@ class Simulator:
                 wp.launch(scatter_vec3, dim=len(new_nodes), device=self.device, inputs=[state.positions, idx, x])
                 wp.launch(scatter_vec3, dim=len(new_nodes), device=self.device, inputs=[state.velocities, idx, zero])
         if reallocated:
-            self.solver = INTEGRATORS[self.integrator](
-                self.device_model, gravity=self.gravity,
-                residual_stress=self.residual_stress, collision=self.collision)
-        elif hasattr(self.solver, "topology_changed"):
+            self.solver = self._make_solver()
+        else:
             self.solver.topology_changed()
 
     def update_step_limit(self, limit: StepLimit | None = None) -> None:
         """Set the stable step (recomputed from the model if not given) and the substeps."""
-        self.step_limit = limit or stable_time_step(self.model, self.positions)
+        self.step_limit = limit or INTEGRATORS[self.integrator].step_limit(self.model, self.positions)
         self._choose_steps()
 
     def check_finite(self) -> None:

@@ -1,81 +1,59 @@
 """Solvers: bound to a DeviceModel, they advance ``state_in -> state_out`` by one substep.
 
-Only the physics a scene enables is launched (and so compiled): gravity, residual-stress
-links and the tool test live in separate Warp modules.
+``INTEGRATORS`` maps the names a scene uses (``[solver] integrator``) to solver classes; the
+contract they share is in ``warp_cut.solvers.base``. Only the physics a scene enables is
+launched (and so compiled): gravity and the tool are folded into specialised node kernels,
+residual-stress links are their own module.
 """
 
 from __future__ import annotations
 
-import numpy as np
 import warp as wp
 
-from .control import Tool
-from .device_model import DeviceModel
-from .state import State
+from .solvers.base import SolverBase
+from .solvers.implicit import ImplicitEulerSolver
+from .solvers.launches import LaunchSequence
+from .solvers.xpbd import XPBDSolver
 
-__all__ = ["SemiImplicitSolver", "INTEGRATORS"]
+__all__ = ["SemiImplicitSolver", "ImplicitEulerSolver", "XPBDSolver", "INTEGRATORS"]
 
 
-class SemiImplicitSolver:
+class SemiImplicitSolver(SolverBase):
     """Semi-implicit Euler (springs, residual links, gravity, implicit damping, tool push-out).
 
+    Two launches per substep on a model without links: the spring forces, then one pass over
+    the nodes that adds gravity, integrates, pushes nodes out of the tool and clears the force
+    accumulator (``kernels.integrate``). Conditionally stable: see ``warp_cut.stability``.
     tool_force (1,) vec3 [N], contact_count (1,) int32 and contact_position_sum (1,) vec3 [m]
     accumulate over substeps until ``clear_tool_stats``.
     """
 
-    def __init__(self, model: DeviceModel, *, gravity=None, residual_stress: bool = True,
-                 collision: bool = True):
-        self.model = model
-        self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
-        self.residual_stress = bool(residual_stress)
-        self.collision = bool(collision)
-        device = model.device
-        self.tool_force = wp.zeros(1, dtype=wp.vec3, device=device)
-        self.contact_count = wp.zeros(1, dtype=wp.int32, device=device)
-        self.contact_position_sum = wp.zeros(1, dtype=wp.vec3, device=device)
+    def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
+        from .kernels.integrate import integrate_kernel
+        from .kernels.springs import spring_forces
 
-    def clear_tool_stats(self) -> None:
-        self.tool_force.zero_()
-        self.contact_count.zero_()
-        self.contact_position_sum.zero_()
-
-    def step(self, state_in: State, state_out: State, tool: Tool | None, h: float) -> None:
-        """Advance by one substep h [s]. state_in.forces must be zero on entry (left zero)."""
         m = self.model
-        device = m.device
         forces = state_in.forces
-        if m.spring_count:
-            from .kernels.springs import spring_forces
-
-            wp.launch(spring_forces, dim=m.spring_count, device=device,
-                      inputs=[state_in.positions, m.spring_indices, m.spring_rest_length,
-                              m.spring_stiffness, forces])
+        indices, rest, stiffness, count = self.spring_arrays()
+        seq.add(spring_forces, self.threads(count),
+                [state_in.positions, indices, rest, stiffness, self.chunk, count, forces])
         if self.residual_stress and m.link_count:
             from .kernels.residual import residual_link_forces
 
-            wp.launch(residual_link_forces, dim=m.link_count, device=device,
-                      inputs=[state_in.positions, m.link_indices, m.link_force,
-                              m.link_smoothing, forces])
-        if self.gravity is not None:
-            from .kernels.gravity import gravity_forces
-
-            wp.launch(gravity_forces, dim=m.node_count, device=device,
-                      inputs=[m.node_mass, m.node_flags, self.gravity, forces])
-        from .kernels.integrate import integrate_semi_implicit
-
-        wp.launch(integrate_semi_implicit, dim=m.node_count, device=device,
-                  inputs=[state_in.positions, state_in.velocities, forces, m.node_mass,
-                          m.node_damping, m.node_flags, float(h)],
-                  outputs=[state_out.positions, state_out.velocities])
-        if self.collision and tool is not None and tool.radius > 0:
-            from .kernels.collision import cylinder_push_out
-
-            wp.launch(cylinder_push_out, dim=m.node_count, device=device,
-                      inputs=[state_out.positions, state_out.velocities, m.node_mass,
-                              m.node_damping, m.node_flags, wp.vec3(*tool.p0), wp.vec3(*tool.p1),
-                              tool.radius, float(h), self.tool_force, self.contact_count,
-                              self.contact_position_sum])
+            seq.add(residual_link_forces, m.link_count,
+                    [state_in.positions, m.link_indices, m.link_force, m.link_smoothing, forces])
+        node = integrate_kernel(self.gravity is not None, self.collision)
+        seq.add(node, self.threads(m.node_count),
+                [state_in.positions, state_in.velocities, forces, m.node_mass, m.node_damping,
+                 m.node_flags, self.gravity if self.gravity is not None else wp.vec3(0.0),
+                 self.tool_pose, h, self.chunk, m.node_count, state_out.positions,
+                 state_out.velocities, self.tool_force, self.contact_count,
+                 self.contact_position_sum])
 
 
-INTEGRATORS = {"semi_implicit": SemiImplicitSolver}
+INTEGRATORS = {
+    "semi_implicit": SemiImplicitSolver,
+    "implicit_euler": ImplicitEulerSolver,
+    "xpbd": XPBDSolver,
+}
 """Integrator names a scene or Simulator accepts, and their solver classes."""

@@ -1,0 +1,155 @@
+"""What every solver shares: the tool pose and its statistics, spring order, launch replay.
+
+The solver contract (the Simulator relies on it):
+
+* ``Cls(device_model, gravity=None, residual_stress=True, collision=True)``;
+* ``step(state_in, state_out, tool, h)`` advances one substep h [s]; ``state_in.forces`` is zero
+  on entry and left zero;
+* ``clear_tool_stats()`` and the stats arrays ``tool_force`` (1,) vec3 [N], ``contact_count``
+  (1,) int32, ``contact_position_sum`` (1,) vec3 [m], accumulated over substeps;
+* ``topology_changed()`` after the device arrays were edited in place or reallocated: the
+  solver drops its recorded launches and re-derives what it keeps (spring order, valences);
+* ``step_limit(model, positions)`` (class method): the StepLimit the automatic step uses.
+
+Launch dims come from the DeviceModel's counts, read at every step; a change of a count
+records new launches.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from ..control import Tool
+from ..device_model import DeviceModel
+from ..stability import StepLimit, stable_time_step
+from .launches import LaunchSequence
+
+__all__ = ["SolverBase", "CPU_CHUNK"]
+
+CPU_CHUNK = 4096
+"""Items per thread on the CPU (Warp runs CPU threads in sequence; a thread costs a few ns)."""
+
+
+class SolverBase:
+    """Shared state of a solver; subclasses implement ``_record`` (and maybe ``_derive``).
+
+    Args:
+        model: the DeviceModel the solver is bound to.
+        gravity: (3,) [m/s^2] or None (gravity code neither launched nor compiled).
+        residual_stress: launch the residual-link forces when the model has links.
+        collision: run the tool test and push-out when a tool is given.
+        replay: how recorded launches are replayed, see ``launches.REPLAY_MODES``.
+    """
+
+    def __init__(self, model: DeviceModel, *, gravity=None, residual_stress: bool = True,
+                 collision: bool = True, replay: str = "auto"):
+        self.model = model
+        self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
+        self.residual_stress = bool(residual_stress)
+        self.collision = bool(collision)
+        self.replay = replay
+        device = model.device
+        self.device = device
+        self.chunk = CPU_CHUNK if wp.get_device(device).is_cpu else 1
+        self.tool_force = wp.zeros(1, dtype=wp.vec3, device=device)
+        self.contact_count = wp.zeros(1, dtype=wp.int32, device=device)
+        self.contact_position_sum = wp.zeros(1, dtype=wp.vec3, device=device)
+        self.tool_pose = wp.zeros(3, dtype=wp.vec3, device=device)
+        """p0 [m], p1 [m], (radius [m], 0, 0) of the current tool; radius 0 = no tool."""
+        self._tool_host = np.zeros((3, 3), dtype=np.float32)
+        # on the CPU the array's memory is written through a numpy view (no copy call)
+        self._tool_view = self.tool_pose.numpy() if wp.get_device(device).is_cpu else None
+        self._last_tool: Tool | None = None
+        self._clear_stats = None
+        self._sequences: dict = {}
+        self.topology_changed()
+
+    # ------------------------------------------------------------------ contract
+    @classmethod
+    def step_limit(cls, model, positions=None) -> StepLimit:
+        """The largest stable substep of this integrator for ``model`` at ``positions``."""
+        return stable_time_step(model, positions)
+
+    def clear_tool_stats(self) -> None:
+        if self._clear_stats is None:
+            from ..kernels.collision import clear_tool_stats
+
+            self._clear_stats = wp.launch(
+                clear_tool_stats, dim=1, device=self.device, record_cmd=True,
+                inputs=[self.tool_force, self.contact_count, self.contact_position_sum])
+        self._clear_stats.launch()
+
+    def topology_changed(self) -> None:
+        """Forget recorded launches and re-derive the solver's own arrays from the model."""
+        self._sequences.clear()
+        self._last_tool = None
+        self._derive()
+
+    def step(self, state_in, state_out, tool: Tool | None, h: float) -> None:
+        """Advance by one substep h [s]."""
+        self._set_tool(tool)
+        m = self.model
+        key = (state_in.positions.ptr, state_out.positions.ptr, float(h), m.node_count,
+               m.spring_count, m.link_count)
+        sequence = self._sequences.get(key)
+        if sequence is None:
+            sequence = LaunchSequence(self.device, self.replay)
+            self._record(sequence, state_in, state_out, float(h))
+            self._sequences[key] = sequence.finalize()
+        sequence.launch()
+
+    # ------------------------------------------------------------------ helpers
+    def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
+        raise NotImplementedError
+
+    def _derive(self) -> None:
+        """Spring arrays in an order that touches node memory in sequence.
+
+        Patch meshes already list springs by their first node; springs appended by a cut or
+        read from a file may not. Then the solver keeps a copy sorted by the smaller node index
+        without deleted slots (the model's numbering is unchanged), rebuilt on every
+        ``topology_changed``.
+        """
+        m = self.model
+        count = m.spring_count
+        idx = m.spring_indices.numpy()[: 2 * count].reshape(-1, 2)
+        live = np.all(idx >= 0, axis=1)
+        first = np.where(live, idx.min(axis=1), np.iinfo(np.int32).max)
+        self.springs_sorted_copy = bool(count) and not bool(np.all(np.diff(first) >= 0))
+        if not self.springs_sorted_copy:
+            self._springs = None
+            return
+        order = np.argsort(first, kind="stable")
+        order = order[live[order]]
+        device = self.device
+        self._springs = (
+            wp.array(idx[order].astype(np.int32).ravel(), dtype=wp.int32, device=device),
+            wp.array(m.spring_rest_length.numpy()[order], dtype=wp.float32, device=device),
+            wp.array(m.spring_stiffness.numpy()[order], dtype=wp.float32, device=device),
+            len(order),
+        )
+
+    def spring_arrays(self):
+        """(indices, rest_length, stiffness, count) the spring kernels should read."""
+        if self._springs is not None:
+            return self._springs
+        m = self.model
+        return m.spring_indices, m.spring_rest_length, m.spring_stiffness, m.spring_count
+
+    def threads(self, count: int) -> int:
+        """Launch dim for ``count`` items at ``self.chunk`` items per thread."""
+        return -(-int(count) // self.chunk)
+
+    def _set_tool(self, tool: Tool | None) -> None:
+        if not self.collision or tool is self._last_tool:
+            return
+        self._last_tool = tool
+        host = self._tool_host if self._tool_view is None else self._tool_view
+        if tool is None:
+            host[2, 0] = 0.0
+        else:
+            host[0], host[1] = tool.p0, tool.p1
+            host[2, 0] = tool.radius
+        if self._tool_view is None:
+            self.tool_pose.assign(host)

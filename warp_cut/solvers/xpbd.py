@@ -1,0 +1,85 @@
+"""XPBD with small steps (one constraint iteration per substep); see ``warp_cut.kernels.xpbd``."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from ..stability import StepLimit, stable_time_step
+from .base import SolverBase
+from .launches import LaunchSequence
+
+__all__ = ["XPBDSolver"]
+
+
+class XPBDSolver(SolverBase):
+    """Springs as compliant distance constraints (compliance 1/k), Jacobi with split masses.
+
+    Stable at any substep for the springs; the step only limits accuracy: far above the
+    explicit limit one Jacobi iteration does not converge the constraints, and the sheet
+    responds softer and more damped than its springs say.
+    """
+
+    @classmethod
+    def step_limit(cls, model, positions=None) -> StepLimit:
+        """The limit of the explicit part alone: residual links (infinite without links)."""
+        if not model.link_count:
+            explicit = stable_time_step(model, positions)
+            return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
+        links_only = _LinksOnly(model)
+        return stable_time_step(links_only, positions)
+
+    def _derive(self) -> None:
+        super()._derive()
+        from ..kernels.xpbd import spring_valence
+
+        device = self.device
+        self._delta = wp.zeros(self.model.node_count, dtype=wp.vec3, device=device)
+        self._valence = wp.zeros(self.model.node_count, dtype=wp.float32, device=device)
+        self._stiffness_sum = wp.zeros(self.model.node_count, dtype=wp.float32, device=device)
+        indices, _, stiffness, count = self.spring_arrays()
+        if count:
+            wp.launch(spring_valence, dim=self.threads(count), device=device,
+                      inputs=[indices, stiffness, self.chunk, count, self._valence,
+                              self._stiffness_sum])
+
+    def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
+        from ..kernels import xpbd as K
+
+        m = self.model
+        n = m.node_count
+        chunk, nt = self.chunk, self.threads(n)
+        x_in, forces = state_in.positions, state_in.forces
+        if self.residual_stress and m.link_count:
+            from ..kernels.residual import residual_link_forces
+
+            seq.add(residual_link_forces, m.link_count,
+                    [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
+        gravity = self.gravity if self.gravity is not None else wp.vec3(0.0)
+        seq.add(K.predict_kernel(self.gravity is not None), nt,
+                [x_in, state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags,
+                 gravity, h, chunk, n, state_out.positions])
+        indices, rest, stiffness, count = self.spring_arrays()
+        seq.add(K.distance_constraints, self.threads(count),
+                [state_out.positions, indices, rest, stiffness, m.node_mass, m.node_flags,
+                 self._valence, 1.0 / (h * h), chunk, count, self._delta])
+        seq.add(K.finish_kernel(self.collision), nt,
+                [x_in, m.node_mass, m.node_damping, m.node_flags, self._stiffness_sum,
+                 self.tool_pose, h, chunk, n,
+                 self._delta, state_out.positions, state_out.velocities, self.tool_force,
+                 self.contact_count, self.contact_position_sum])
+
+
+class _LinksOnly:
+    """A view of a model without its springs, for the explicit (link) part of the step limit."""
+
+    def __init__(self, model):
+        self._model = model
+        self.springs = np.zeros((0, 2), dtype=np.int64)
+        self.stiffness = np.zeros(0)
+        self.rest_lengths = np.zeros(0)
+
+    def __getattr__(self, name):
+        return getattr(self._model, name)
