@@ -254,9 +254,11 @@ class Cutter:
         self.contact_path.append(point)
         t2 = time.perf_counter()
         positions = NodePositions(self._positions_view())
-        result = {"created": [], "yellow": [], "blue": [], "unfilled": 0}
-        if editor.report.deleted_triangle_corners:
-            result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions)
+        result = {"created": [], "yellow": [], "blue": [], "unfilled": []}
+        if editor.report.deleted_triangle_corners or inc.open_chains:
+            result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions,
+                               inc.open_chains)
+        inc.open_chains = result["unfilled"]  # retried at the next event
         report = editor.finish()
         candidates = [v for v in list(report.new_nodes) + sorted(editor.touched_nodes)
                       if sim.model.active[v]]
@@ -276,7 +278,7 @@ class Cutter:
         tot["lip_nodes"] += len(result["created"])
         tot["new_springs"] += len(report.new_springs)
         tot["removed_fragments"] += len(report.removed_fragments)
-        self.unfilled_holes += result["unfilled"]
+        self.unfilled_holes = sum(len(i.open_chains) for i in self.incisions)
         self.new_triangles.update(report.new_triangles)
         self.new_triangles.difference_update(report.deleted_triangles)
 

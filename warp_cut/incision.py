@@ -73,6 +73,8 @@ class Incision:
         """Radius of the swept circle [m] (set by the Cutter)."""
         self.anchor = -1
         """A live node near the tool, where the Cutter starts looking for what it cuts."""
+        self.open_chains: list[list[int]] = []
+        """Borders of holes the last cut event could not fill (retried at the next one)."""
 
     # ----------------------------------------------------------------- curve
     @property

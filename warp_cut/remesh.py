@@ -22,25 +22,27 @@ from .classes import NodeClass, SpringClass
 __all__ = ["hole_chains", "zip_strip", "ear_clip", "fill_hole"]
 
 
-def hole_chains(editor, removed_corners) -> list[list[int]]:
+def hole_chains(editor, removed_corners, open_chains=()) -> list[list[int]]:
     """Border chains of the hole left by removed triangles (their corners, winding order).
 
     A chain follows the directed edges a -> b of removed triangles that a surviving triangle
     still uses (it is the hole's border, oriented like the removed surface). Closed chains
     repeat their first node at the end. Edges on the tissue's outer border break chains.
+    ``open_chains``: borders of holes an earlier event left open, joined in again.
     """
     active = editor.model.active
     nxt: dict[int, list[int]] = defaultdict(list)
     incoming: dict[int, int] = defaultdict(int)
     seen = set()
-    for a, b, c in removed_corners:
-        for i, j in ((a, b), (b, c), (c, a)):
-            if (i, j) in seen or not (active[i] and active[j]):
-                continue
-            if editor.triangles_with_edge(i, j):
-                seen.add((i, j))
-                nxt[i].append(j)
-                incoming[j] += 1
+    edges = [(i, j) for a, b, c in removed_corners for i, j in ((a, b), (b, c), (c, a))]
+    edges += [(i, j) for chain in open_chains for i, j in zip(chain[:-1], chain[1:])]
+    for i, j in edges:
+        if (i, j) in seen or not (active[i] and active[j]):
+            continue
+        if len(editor.triangles_with_edge(i, j)) == 1 and not _runs(editor, i, j):
+            seen.add((i, j))
+            nxt[i].append(j)
+            incoming[j] += 1
     chains = []
     starts = [v for v in nxt if incoming[v] == 0]
     while True:
@@ -60,6 +62,16 @@ def hole_chains(editor, removed_corners) -> list[list[int]]:
         if len(chain) > 1:
             chains.append(chain)
     return chains
+
+
+def _runs(editor, a, b) -> bool:
+    """True if a live triangle already runs the edge a -> b (the hole must run it b -> a)."""
+    corners = editor.model.triangle_table.column("corners")
+    for t in editor.triangles_with_edge(a, b):
+        c = corners[t]
+        if any(c[k] == a and c[(k + 1) % 3] == b for k in range(3)):
+            return True
+    return False
 
 
 def _valid(tri, positions, normal) -> bool:
@@ -122,10 +134,10 @@ def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(n, e1)
     pts = positions[polygon]
-    xy = {v: (float(p @ e1), float(p @ e2)) for v, p in zip(polygon, pts)}
-    if len(set(polygon)) != len(polygon):
-        return []
-    ring = list(polygon)
+    # ring entries are positions in the cycle: a node may appear twice (a closed border and a
+    # closed slit joined by a bridge edge walked both ways)
+    xy = [(float(p @ e1), float(p @ e2)) for p in pts]
+    ring = list(range(len(polygon)))
     tris = []
 
     def cross(a, b, c):
@@ -145,8 +157,11 @@ def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
             a, b, c = ring[k - 1], ring[k], ring[(k + 1) % len(ring)]
             if cross(a, b, c) <= 0:
                 continue  # reflex or flat corner
+            corners = {polygon[a], polygon[b], polygon[c]}
+            if len(corners) < 3:
+                continue
             inside = any(cross(a, b, v) >= 0 and cross(b, c, v) >= 0 and cross(c, a, v) >= 0
-                         for v in ring if v not in (a, b, c))
+                         for v in ring if polygon[v] not in corners)
             if inside:
                 continue
             q = min_angle(a, b, c)
@@ -157,11 +172,11 @@ def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
         a, b, c = ring[best - 1], ring[best], ring[(best + 1) % len(ring)]
         tris.append((a, b, c))
         ring.pop(best)
-    if len(ring) == 3 and cross(*ring) > 0:
+    if len(ring) == 3 and cross(*ring) > 0 and len({polygon[v] for v in ring}) == 3:
         tris.append(tuple(ring))
     else:
         return []
-    return tris
+    return [tuple(polygon[v] for v in tri) for tri in tris]
 
 
 def _lips_for_chain(incision, chain, theta_of, lip_slots):
@@ -197,11 +212,11 @@ def _lips_for_chain(incision, chain, theta_of, lip_slots):
     return ordered
 
 
-def fill_hole(editor, incision, removed_corners, positions) -> dict:
+def fill_hole(editor, incision, removed_corners, positions, open_chains=()) -> dict:
     """Re-mesh the hole around ``incision`` (Stage 3). ``positions`` is a ``NodePositions`` of the
     current node positions [m] (new springs take their rest lengths from them); the positions
     of the lip nodes made here are added to it."""
-    chains = hole_chains(editor, removed_corners)
+    chains = hole_chains(editor, removed_corners, open_chains)
     lip_slots = incision.lip_nodes()
     lip_theta = {node: theta for node, theta, *_ in lip_slots if node >= 0}
 
@@ -215,7 +230,7 @@ def fill_hole(editor, incision, removed_corners, positions) -> dict:
     active = editor.model.active
     lip_slots = [(node if node >= 0 and active[node] else -1, theta, side, station)
                  for node, theta, side, station in lip_slots]
-    created, triangles, skipped = [], [], 0
+    created, triangles, unfilled = [], [], []
     for chain in chains:
         if chain[0] == chain[-1]:
             # start the loop at the slit's start node, or the node nearest it (theta ~ 0)
@@ -253,14 +268,14 @@ def fill_hole(editor, incision, removed_corners, positions) -> dict:
             # displaced nodes can make the strip fold over: triangulate the hole polygon itself
             strip = ear_clip(_polygon(chain, lips), positions, incision.normal)
             if not _acceptable(strip, editor, positions, incision.normal):
-                skipped += 1  # leave this hole open rather than make an invalid mesh
+                unfilled.append(chain)  # leave it open (for now) rather than make an invalid mesh
                 continue
         for tri in strip:
             triangles.append(tri)
             editor.add_triangle(tri, positions, SpringClass.RED)
     classes = _classify(editor, incision, triangles, positions)
     return {"created": created, "triangles": triangles,
-            "chains": len(chains), "unfilled": skipped, **classes}
+            "chains": len(chains), "unfilled": unfilled, **classes}
 
 
 def _acceptable(strip, editor, positions, normal) -> bool:
