@@ -153,8 +153,15 @@ class Cutter:
         return self.current
 
     def end_incision(self) -> None:
-        """Finish the current incision (the next cut starts a new one)."""
+        """Finish the current incision (the next cut starts a new one); a hole still open
+        waiting for better geometry is filled now, slivers or not."""
+        inc = self.current
         self.current = None
+        if inc is not None and inc.open_chains:
+            self.editor.begin()
+            report, result, positions = self._stage3(inc, None, defer_slivers=False)
+            self._apply(report, positions)
+            self._count(report, result)
 
     @staticmethod
     def _axis_crossing(tool: Tool, origin, normal) -> np.ndarray | None:
@@ -253,25 +260,37 @@ class Cutter:
         inc.plan_stations()
         self.contact_path.append(point)
         t2 = time.perf_counter()
-        positions = NodePositions(self._positions_view())
-        result = {"created": [], "yellow": [], "blue": [], "unfilled": []}
-        if editor.report.deleted_triangle_corners or inc.open_chains:
-            result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions,
-                               inc.open_chains)
-        inc.open_chains = result["unfilled"]  # retried at the next event
-        report = editor.finish()
-        candidates = [v for v in list(report.new_nodes) + sorted(editor.touched_nodes)
-                      if sim.model.active[v]]
-        if candidates:
-            xs = positions[candidates]
-            inc.anchor = int(candidates[int(np.argmin(np.linalg.norm(xs - point, axis=1)))])
+        # a sliver may wait a few events for better geometry, not forever
+        report, result, positions = self._stage3(inc, point, defer_slivers=inc.deferrals < 3)
         t3 = time.perf_counter()
         self._apply(report, positions)
         t4 = time.perf_counter()
         for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
             self.latency_ms[name].append(1e3 * dt)
+        self.totals["events"] += 1
+        self._count(report, result)
+
+    def _stage3(self, inc: Incision, point, *, defer_slivers: bool):
+        """Re-mesh the grey area of the current edit and the holes left open before, then
+        finish the edit. Returns (edit report, fill result, positions)."""
+        editor, sim = self.editor, self.sim
+        positions = NodePositions(self._positions_view())
+        result = {"created": [], "yellow": [], "blue": [], "unfilled": []}
+        if editor.report.deleted_triangle_corners or inc.open_chains:
+            result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions,
+                               inc.open_chains, defer_slivers=defer_slivers)
+        inc.deferrals = inc.deferrals + 1 if result["unfilled"] else 0
+        inc.open_chains = result["unfilled"]  # retried at the next event
+        report = editor.finish()
+        candidates = [v for v in list(report.new_nodes) + sorted(editor.touched_nodes)
+                      if sim.model.active[v]]
+        if candidates and point is not None:
+            xs = positions[candidates]
+            inc.anchor = int(candidates[int(np.argmin(np.linalg.norm(xs - point, axis=1)))])
+        return report, result, positions
+
+    def _count(self, report, result) -> None:
         tot = self.totals
-        tot["events"] += 1
         tot["deleted_nodes"] += len(report.deleted_nodes) - len(report.removed_fragments)
         tot["deleted_springs"] += len(report.deleted_springs)
         tot["residual_links"] += len(report.residual_links)

@@ -75,6 +75,8 @@ class Incision:
         """A live node near the tool, where the Cutter starts looking for what it cuts."""
         self.open_chains: list[list[int]] = []
         """Borders of holes the last cut event could not fill (retried at the next one)."""
+        self.deferrals = 0
+        """Consecutive events that left a hole open."""
 
     # ----------------------------------------------------------------- curve
     @property
@@ -166,9 +168,12 @@ class Incision:
 
     # ----------------------------------------------------------------- stations
     def plan_stations(self) -> None:
-        """Add interior stations every ``spacing`` up to half a spacing before the end."""
+        """Add interior stations every ``spacing``, keeping the last one at least half a spacing
+        and 1.5 sweep radii behind the end: a lip is made once the tool (whose footprint on a
+        tilted surface reaches r / sin(angle) ahead and behind) has passed it."""
         last = self.station_u[-1] if self.station_u else 0.0
-        while self.length - (last + self.spacing) >= 0.5 * self.spacing:
+        clearance = max(0.5 * self.spacing, 1.5 * self.sweep_radius)
+        while self.length - (last + self.spacing) >= clearance:
             last += self.spacing
             self.station_u.append(last)
             self.left.append(-1)

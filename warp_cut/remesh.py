@@ -212,10 +212,13 @@ def _lips_for_chain(incision, chain, theta_of, lip_slots):
     return ordered
 
 
-def fill_hole(editor, incision, removed_corners, positions, open_chains=()) -> dict:
+def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
+              min_angle_deg: float = 15.0, defer_slivers: bool = False) -> dict:
     """Re-mesh the hole around ``incision`` (Stage 3). ``positions`` is a ``NodePositions`` of the
     current node positions [m] (new springs take their rest lengths from them); the positions
-    of the lip nodes made here are added to it."""
+    of the lip nodes made here are added to it. ``defer_slivers``: leave a hole open (for the
+    next event) rather than fill it with a triangle whose smallest angle is below
+    ``min_angle_deg``."""
     chains = hole_chains(editor, removed_corners, open_chains)
     lip_slots = incision.lip_nodes()
     lip_theta = {node: theta for node, theta, *_ in lip_slots if node >= 0}
@@ -263,19 +266,40 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=()) -> d
                 created.append(node)
                 made_here[(station, side)] = node
             lips.append(node)
-        strip = zip_strip(chain, lips, positions, incision.normal)
-        if not _acceptable(strip, editor, positions, incision.normal):
-            # displaced nodes can make the strip fold over: triangulate the hole polygon itself
-            strip = ear_clip(_polygon(chain, lips), positions, incision.normal)
-            if not _acceptable(strip, editor, positions, incision.normal):
-                unfilled.append(chain)  # leave it open (for now) rather than make an invalid mesh
-                continue
+        # the matching strip, or, where displaced nodes make it fold over or thin, the hole
+        # polygon cut into ears; the better-shaped valid one is kept
+        candidates = [strip for strip in (zip_strip(chain, lips, positions, incision.normal),)
+                      if _acceptable(strip, editor, positions, incision.normal)]
+        if not candidates or _min_angle(candidates[0], positions) < min_angle_deg:
+            ears = ear_clip(_polygon(chain, lips), positions, incision.normal)
+            if _acceptable(ears, editor, positions, incision.normal):
+                candidates.append(ears)
+        if not candidates:
+            unfilled.append(chain)  # leave it open (for now) rather than make an invalid mesh
+            continue
+        strip = max(candidates, key=lambda c: _min_angle(c, positions))
+        if _min_angle(strip, positions) < min_angle_deg and defer_slivers:
+            unfilled.append(chain)  # the tool moves on: the next event may shape it better
+            continue
         for tri in strip:
             triangles.append(tri)
             editor.add_triangle(tri, positions, SpringClass.RED)
     classes = _classify(editor, incision, triangles, positions)
     return {"created": created, "triangles": triangles,
             "chains": len(chains), "unfilled": unfilled, **classes}
+
+
+def _min_angle(tris, positions) -> float:
+    """Smallest angle [deg] of triangles (node triples)."""
+    if not tris:
+        return 0.0
+    p = positions[[v for t in tris for v in t]].reshape(-1, 3, 3)
+    worst = 180.0
+    for k in range(3):
+        u, w = p[:, (k + 1) % 3] - p[:, k], p[:, (k + 2) % 3] - p[:, k]
+        ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), (u * w).sum(axis=1)))
+        worst = min(worst, float(ang.min()))
+    return worst
 
 
 def _acceptable(strip, editor, positions, normal) -> bool:
