@@ -18,6 +18,7 @@ from collections import defaultdict
 import numpy as np
 
 from .classes import NodeClass, SpringClass
+from .triangle_geometry import triangle_min_angles
 
 __all__ = ["hole_chains", "zip_strip", "ear_clip", "fill_hole"]
 
@@ -293,13 +294,8 @@ def _min_angle(tris, positions) -> float:
     """Smallest angle [deg] of triangles (node triples)."""
     if not tris:
         return 0.0
-    p = positions[[v for t in tris for v in t]].reshape(-1, 3, 3)
-    worst = 180.0
-    for k in range(3):
-        u, w = p[:, (k + 1) % 3] - p[:, k], p[:, (k + 2) % 3] - p[:, k]
-        ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), (u * w).sum(axis=1)))
-        worst = min(worst, float(ang.min()))
-    return worst
+    corners = positions[[v for t in tris for v in t]]
+    return float(triangle_min_angles(corners, np.arange(len(corners)).reshape(-1, 3)).min())
 
 
 def _acceptable(strip, editor, positions, normal) -> bool:
