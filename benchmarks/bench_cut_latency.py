@@ -38,16 +38,14 @@ def one_run(size) -> tuple[int, dict]:
     return model.active_node_count, cutter.latency_summary()
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--out", default=str(pathlib.Path(__file__).parent / "results"))
-    args = parser.parse_args(argv)
-    wp.config.log_level = getattr(wp, "LOG_WARNING", 30)
+def run(quick: bool = False, repeats: int = 3, out=None) -> list[dict]:
+    """Measure and write cut_latency.csv / .md (``quick``: one repeat)."""
+    repeats = 1 if quick else repeats
+    out = pathlib.Path(out or pathlib.Path(__file__).parent / "results")
     rows = []
     for label, size in SIZES.items():
         runs = []
-        for _ in range(args.repeats):
+        for _ in range(repeats):
             t = time.perf_counter()
             nodes, summary = one_run(size)
             runs.append(summary)
@@ -58,8 +56,7 @@ def main(argv=None) -> int:
             rows.append({"patch": label, "nodes": nodes, "stage": stage,
                          "p50_ms_median": float(np.median(p50)), "p99_ms_median": float(np.median(p99)),
                          "p99_ms_min": float(np.min(p99)), "p99_ms_max": float(np.max(p99)),
-                         "events": runs[0][stage]["events"], "repeats": args.repeats})
-    out = pathlib.Path(args.out)
+                         "events": runs[0][stage]["events"], "repeats": repeats})
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "cut_latency.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -70,8 +67,19 @@ def main(argv=None) -> int:
     for r in rows:
         lines.append(f"| {r['patch']} | {r['nodes']} | {r['stage']} | {r['p50_ms_median']:.2f} | "
                      f"{r['p99_ms_median']:.2f} | {r['p99_ms_min']:.2f}-{r['p99_ms_max']:.2f} |")
-    (out / "cut_latency.md").write_text("\n".join(lines) + "\n")
+    (out / "cut_latency.md").write_text("# Cut event latency per stage\n\n" + __doc__.split("\n\n")[1]
+                                        + "\n\n" + "\n".join(lines) + "\n")
     print("\n".join(lines))
+    return rows
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--out", default=str(pathlib.Path(__file__).parent / "results"))
+    args = parser.parse_args(argv)
+    wp.config.log_level = getattr(wp, "LOG_WARNING", 30)
+    run(repeats=args.repeats, out=args.out)
     return 0
 
 

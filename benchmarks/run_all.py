@@ -20,6 +20,7 @@ import warp as wp  # noqa: E402
 wp.config.quiet = True
 
 import bench_compile  # noqa: E402
+import bench_cut_latency  # noqa: E402
 import bench_pareto  # noqa: E402
 import bench_realtime  # noqa: E402
 import bench_stable_step  # noqa: E402
@@ -33,7 +34,7 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     parts = [("throughput", bench_throughput), ("pareto (hanging sheet)", bench_pareto),
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
-             ("compile time", bench_compile)]
+             ("compile time", bench_compile), ("cut event latency", bench_cut_latency)]
     for name, module in parts:
         print(f"{name}:", flush=True)
         module.run(quick=quick)

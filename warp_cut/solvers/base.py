@@ -63,7 +63,9 @@ class SolverBase:
         self._last_tool: Tool | None = None
         self._clear_stats = None
         self._sequences: dict = {}
+        self._sort_springs = True  # sort once here; a cut's small appended tail is left in place
         self.topology_changed()
+        self._sort_springs = False
 
     # ------------------------------------------------------------------ contract
     @classmethod
@@ -106,12 +108,17 @@ class SolverBase:
     def _derive(self) -> None:
         """Spring arrays in an order that touches node memory in sequence.
 
-        Patch meshes already list springs by their first node; springs appended by a cut or
-        read from a file may not. Then the solver keeps a copy sorted by the smaller node index
-        without deleted slots (the model's numbering is unchanged), rebuilt on every
-        ``topology_changed``.
+        Patch meshes already list springs by their first node; springs read from a file may
+        not. Then the solver keeps a copy sorted by the smaller node index without deleted
+        slots (the model's numbering is unchanged). That sort is O(springs), so it is done when
+        the solver is made, not on ``topology_changed``: after a cut the solver reads the
+        model's own arrays (dead slots skipped, the cut's few new springs at the end), and an
+        edit costs what it touches.
         """
         m = self.model
+        if not self._sort_springs:
+            self.springs_sorted_copy, self._springs = False, None
+            return
         count = m.spring_count
         idx = m.spring_indices.numpy()[: 2 * count].reshape(-1, 2)
         live = np.all(idx >= 0, axis=1)
