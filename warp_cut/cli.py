@@ -1,7 +1,8 @@
-"""Command line: ``warp-cut run``, ``warp-cut validate``.
+"""Command line: ``warp-cut run``, ``warp-cut validate``, ``warp-cut batch``, ``warp-cut report``, ...
 
-Exit codes: 0 success, 1 a check found problems (``usd-check``), 2 bad input (nothing
-written), 3 simulation unstable (nothing written).
+Exit codes: 0 success, 1 a check found problems (``usd-check``) or a batch scenario failed,
+was unstable or was lost, 2 bad input (nothing written), 3 simulation unstable (nothing
+written), 130 a batch was interrupted (finished scenarios kept).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from .usd_export import DEFAULT_CHUNK_FRAMES
 __all__ = ["main"]
 
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_UNSTABLE = 0, 1, 2, 3
+EXIT_SOME_FAILED, EXIT_INTERRUPTED = 1, 130
 
 
 def _quiet_warp() -> None:
@@ -118,6 +120,38 @@ def _cmd_experiment_collision(args) -> int:
     return EXIT_OK
 
 
+def _cmd_batch(args) -> int:
+    from .batch import run_batch
+    from .sweep import load_sweep
+
+    if args.workers is not None and args.scheduler:
+        raise InputError("--workers sizes the local pool; with --scheduler the cluster's "
+                         "workers run the scenarios: give one of the two")
+    sweep = load_sweep(args.sweep)
+    out = args.out or os.path.join("out", sweep.path.stem)
+    try:
+        summary = run_batch(sweep, out, workers=args.workers, scheduler=args.scheduler,
+                            retry_failed=args.retry_failed, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"warp-cut: interrupted; finished scenarios are kept in {out}; run the same "
+              "command again to run the rest", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    print(f"{summary.line()} -> {os.path.join(out, 'results.csv')}")
+    for scenario_id, message in summary.lost:
+        print(f"  lost {scenario_id}: {message}", file=sys.stderr)
+    if args.plot:
+        _cmd_report(argparse.Namespace(dir=out))
+    return EXIT_OK if summary.all_ok else EXIT_SOME_FAILED
+
+
+def _cmd_report(args) -> int:
+    from .report import plot_results
+
+    for path in plot_results(args.dir):
+        print(f"  wrote {path}")
+    return EXIT_OK
+
+
 def _numbers(text: str) -> list[float]:
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
@@ -175,6 +209,20 @@ def build_parser() -> argparse.ArgumentParser:
                      help="simulation steps per second, the per-step test's rate (default 1000)")
     col.add_argument("--quiet", action="store_true", help="no summary")
     col.set_defaults(func=_cmd_experiment_collision)
+    bat = sub.add_parser("batch", help="run the scenarios of a sweep file; write results.csv")
+    bat.add_argument("sweep", help="sweep file (TOML) or bundled sweep name")
+    bat.add_argument("--out", help="output directory (default: out/<sweep name>)")
+    bat.add_argument("--workers", type=int, help="local processes (default: number of cores)")
+    bat.add_argument("--scheduler", metavar="ADDRESS",
+                     help="Dask scheduler, e.g. tcp://host:8786 (needs warp-cut[cluster])")
+    bat.add_argument("--retry-failed", action="store_true",
+                     help="run failed and unstable scenarios again (finished ones are kept)")
+    bat.add_argument("--plot", action="store_true", help="draw metrics against parameters")
+    bat.add_argument("--quiet", action="store_true", help="no progress output")
+    bat.set_defaults(func=_cmd_batch)
+    rep = sub.add_parser("report", help="draw a batch's metrics against its parameters (PNG)")
+    rep.add_argument("dir", help="batch output directory (holds results.csv)")
+    rep.set_defaults(func=_cmd_report)
     return parser
 
 

@@ -1,0 +1,236 @@
+"""warp_cut/batch.py, batch_store.py, report.py and ``warp-cut batch``: the process pool and a
+real Dask cluster give the same results, an interrupted batch resumes without losing or
+repeating work, and failing scenarios do not stop the others."""
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from warp_cut import batch
+from warp_cut.batch import run_batch
+from warp_cut.batch_store import BatchStore
+from warp_cut.cli import main
+from warp_cut.sweep import load_sweep
+
+TINY = """base = "skin_press"
+[set]
+"tissue.size" = [0.02, 0.02]
+duration = 0.3
+"""
+WALL_FIELDS = {"wall_time_s", "realtime_factor"}
+"""Metrics that measure the machine, not the simulation."""
+
+
+def _write(tmp_path, text, name="sweep.toml") -> str:
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+def _rows(out) -> list[dict]:
+    with open(Path(out) / "results.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _metrics(run_dir: Path) -> dict:
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    return {k: v for k, v in metrics.items() if k not in WALL_FIELDS}
+
+
+def _entries(out) -> set:
+    return {p.name for p in (Path(out) / "runs").iterdir()}
+
+
+@pytest.fixture(scope="module")
+def pool_run(tmp_path_factory):
+    """A 2 x 2 sweep run once on a local pool of two processes."""
+    tmp = tmp_path_factory.mktemp("pool")
+    sweep = _write(tmp, TINY + '[grid]\n"material.stiffness" = [80.0, 160.0]\n'
+                                 '"tool.radius" = [0.0005, 0.001]\n')
+    summary = run_batch(load_sweep(sweep), tmp / "out", workers=2)
+    return sweep, tmp / "out", summary
+
+
+def test_pool_runs_every_scenario_as_warp_cut_run_does(pool_run, tmp_path):
+    sweep_path, out, summary = pool_run
+    sweep = load_sweep(sweep_path)
+    assert summary.all_ok and summary.counts["ok"] == 4 and summary.skipped == 0
+    rows = _rows(out)
+    assert [r["id"] for r in rows] == [s.id for s in sweep.scenarios]
+    assert {r["status"] for r in rows} == {"ok"} and {r["message"] for r in rows} == {""}
+    assert [float(r["material.stiffness"]) for r in rows] == [80, 80, 160, 160]
+    assert _entries(out) == {s.id for s in sweep.scenarios}
+    # the last scenario, run on its own by warp-cut run with the recorded overrides
+    scenario = sweep.scenarios[-1]
+    record = json.loads((out / "runs" / scenario.id / "scenario.json").read_text())
+    assert record["status"] == "ok" and record["overrides"] == sweep.overrides(scenario)
+    args = ["run", "skin_press", "--out", str(tmp_path / "single"), "--quiet"]
+    for item in record["overrides"]:
+        args += ["--set", item]
+    assert main(args) == 0
+    assert _metrics(out / "runs" / scenario.id) == _metrics(tmp_path / "single")
+    assert ((out / "runs" / scenario.id / "timeseries.csv").read_bytes()
+            == (tmp_path / "single" / "timeseries.csv").read_bytes())
+    # the csv carries the metrics of metrics.json
+    row = rows[-1]
+    m = _metrics(out / "runs" / scenario.id)
+    assert float(row["max_tool_force_n"]) == pytest.approx(m["max_tool_force_n"], rel=1e-8)
+    assert int(row["steps"]) == m["steps"] and m["max_tool_force_n"] > 0
+
+
+def test_dask_cluster_gives_identical_metrics(pool_run, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    sweep, pool_out, _ = pool_run
+    out = tmp_path / "dask"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        assert main(["batch", sweep, "--out", str(out), "--scheduler",
+                     cluster.scheduler_address, "--quiet"]) == 0
+    assert _entries(out) == _entries(pool_out)
+    for name in _entries(out):
+        assert _metrics(out / "runs" / name) == _metrics(pool_out / "runs" / name)
+        assert ((out / "runs" / name / "timeseries.csv").read_bytes()
+                == (pool_out / "runs" / name / "timeseries.csv").read_bytes())
+    drop = lambda row: {k: v for k, v in row.items() if k not in WALL_FIELDS | {"worker_time_s"}}
+    assert [drop(r) for r in _rows(out)] == [drop(r) for r in _rows(pool_out)]
+
+
+def test_killed_batch_resumes_with_one_row_per_scenario(tmp_path, capsys):
+    sweep = _write(tmp_path, TINY + '[grid]\n"material.stiffness" = [60.0, 80.0, 120.0, 160.0, 200.0]\n'
+                                    '"tool.radius" = [0.0005, 0.001]\n')
+    ids = [s.id for s in load_sweep(sweep).scenarios]
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "warp_cut.cli", "batch", sweep, "--out",
+                             str(out), "--workers", "1", "--quiet"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.monotonic() + 90
+    try:
+        while proc.poll() is None and time.monotonic() < deadline:
+            # results.csv is always whole, and never ahead of the run directories (read it first)
+            rows = _rows(out) if (out / "results.csv").exists() else []
+            done = {n for n in _entries(out) if not n.startswith(".")} if (out / "runs").is_dir() else set()
+            assert {r["id"] for r in rows} <= done
+            if len(done) >= 2:
+                break
+            time.sleep(0.01)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)  # the batch and its pool worker, as kill -9 would
+        proc.wait()
+    finished = {n for n in _entries(out) if not n.startswith(".")}
+    assert 2 <= len(finished) < len(ids), "the kill must land part-way"
+    before = {}
+    for name in finished:  # every run directory present is whole
+        run = out / "runs" / name
+        assert {p.name for p in run.iterdir()} == {"metrics.json", "timeseries.csv", "scenario.json"}
+        before[name] = (run.stat().st_ino, (run / "metrics.json").stat().st_mtime_ns)
+
+    assert main(["batch", sweep, "--out", str(out), "--workers", "2", "--quiet"]) == 0
+    assert f"({len(finished)} already done)" in capsys.readouterr().out
+    rows = _rows(out)
+    assert [r["id"] for r in rows] == ids and {r["status"] for r in rows} == {"ok"}
+    assert _entries(out) == set(ids)  # no temporaries left behind
+    for name, stamp in before.items():  # what had finished was not run again
+        run = out / "runs" / name
+        assert (run.stat().st_ino, (run / "metrics.json").stat().st_mtime_ns) == stamp
+    assert main(["batch", sweep, "--out", str(out), "--quiet"]) == 0
+    assert f"({len(ids)} already done)" in capsys.readouterr().out
+
+
+def test_bad_and_unstable_scenarios_do_not_stop_the_others(tmp_path, capsys):
+    sweep = _write(tmp_path, TINY + """
+[[cases]]
+"material.damping" = 1.0
+[[cases]]
+"material.stiffness" = -1.0
+[[cases]]
+"physics.collision" = false
+"material.damping" = 0.0
+"solver.substeps" = 1
+"solver.dt" = 0.01
+duration = 0.5
+[[cases]]
+"material.stiffness" = 80.0
+""")
+    out = tmp_path / "out"
+    assert main(["batch", sweep, "--out", str(out), "--workers", "2"]) == 1
+    captured = capsys.readouterr()
+    assert "4 scenarios (0 already done): 2 ok, 1 failed, 1 unstable" in captured.out
+    assert "done 4, failed 2, remaining 0" in captured.err  # progress lines off a terminal
+    rows = {r["id"]: r for r in _rows(out)}
+    assert [r["status"] for r in rows.values()] == ["ok", "failed", "unstable", "ok"]
+    bad = rows["material.stiffness=-1.0"]
+    assert "skin_press.toml: [material.stiffness] must be in [0, 1000000000.0], got -1.0" in bad["message"]
+    assert bad["max_tool_force_n"] == "" and float(bad["material.stiffness"]) == -1.0
+    unstable = rows[next(i for i in rows if i.startswith("physics.collision=false"))]
+    assert "simulation unstable" in unstable["message"] and "stable step" in unstable["message"]
+    assert rows["material.damping=1.0"]["message"] == "" and rows["material.stiffness=80.0"]["steps"]
+    assert {p.name for p in (out / "runs" / "material.stiffness=-1.0").iterdir()} == {"scenario.json"}
+
+    stamps = {i: (out / "runs" / i).stat().st_ino for i in rows}
+    assert main(["batch", sweep, "--out", str(out), "--quiet"]) == 1  # nothing left to run
+    assert "(4 already done)" in capsys.readouterr().out
+    assert {i: (out / "runs" / i).stat().st_ino for i in rows} == stamps
+    assert main(["batch", sweep, "--out", str(out), "--quiet", "--retry-failed"]) == 1
+    assert "(2 already done)" in capsys.readouterr().out
+    after = {i: (out / "runs" / i).stat().st_ino for i in rows}
+    assert [after[i] == stamps[i] for i in rows] == [True, False, False, True]
+    assert [r["status"] for r in _rows(out)] == ["ok", "failed", "unstable", "ok"]
+
+
+def test_changed_base_scene_reruns_its_scenarios(tmp_path, capsys):
+    sweep = _write(tmp_path, 'base = "skin_press"\n[set]\n"tissue.size" = [0.02, 0.02]\n'
+                             'duration = 0.05\n[grid]\n"material.stiffness" = [80.0]\n')
+    out = tmp_path / "out"
+    assert main(["batch", sweep, "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    capsys.readouterr()
+    sweep_text = Path(sweep).read_text().replace("duration = 0.05", "duration = 0.1")
+    Path(sweep).write_text(sweep_text)
+    assert main(["batch", sweep, "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    assert "(0 already done)" in capsys.readouterr().out
+    assert float(_rows(out)[0]["sim_time_s"]) == pytest.approx(0.1)
+    assert _entries(out) == {"material.stiffness=80.0"}
+
+
+def test_bad_input_exit_2_and_nothing_written(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "never"
+    bad = _write(tmp_path, 'base = "skin_press"\n[grid]\n"material.stiffness" = 80.0\n')
+    assert main(["batch", bad, "--out", str(out)]) == 2
+    assert 'sweep.toml: [grid."material.stiffness"]' in capsys.readouterr().err
+    good = _write(tmp_path, TINY, "good.toml")
+    assert main(["batch", good, "--out", str(out), "--workers", "0"]) == 2
+    assert main(["batch", good, "--out", str(out), "--workers", "1",
+                 "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    monkeypatch.setattr(batch, "CONNECT_TIMEOUT_S", 0.5)
+    assert main(["batch", good, "--out", str(out), "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    assert "cannot connect" in capsys.readouterr().err
+    assert not out.exists()
+    (tmp_path / "file").write_text("")
+    assert main(["batch", good, "--out", str(tmp_path / "file")]) == 2
+
+
+def test_one_batch_at_a_time_per_directory(tmp_path, capsys):
+    sweep = load_sweep(_write(tmp_path, TINY))
+    with BatchStore(tmp_path / "out", sweep):
+        with pytest.raises(Exception, match="another warp-cut batch is writing there"):
+            run_batch(sweep, tmp_path / "out", workers=1)
+
+
+def test_report_draws_metrics_against_parameters(pool_run, tmp_path, capsys):
+    _, out, _ = pool_run
+    assert main(["report", str(out)]) == 0
+    plots = sorted(p.name for p in (out / "plots").iterdir())
+    assert plots == ["material.stiffness.png", "tool.radius.png"]
+    for name in plots:
+        data = (out / "plots" / name).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+    assert main(["report", str(tmp_path)]) == 2
+    assert "batch.json: not found" in capsys.readouterr().err

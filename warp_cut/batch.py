@@ -1,0 +1,183 @@
+"""Batch runs: the scenarios of a sweep on a local process pool or a Dask cluster.
+
+Both backends are ``concurrent.futures`` executors: a ``ProcessPoolExecutor`` here, or the
+executor of a ``distributed.Client`` (``--scheduler tcp://host:port``). A worker runs one
+scenario exactly as ``warp-cut run`` does and sends back the files it wrote, so workers need
+no shared filesystem; this process alone writes ``DIR`` (see ``batch_store``).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import os
+import socket
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+
+from .batch_store import STATUSES, BatchStore
+from .errors import InputError, SimulationUnstable
+from .sweep import Sweep
+
+__all__ = ["run_batch", "run_scenario", "BatchSummary", "STATUSES"]
+
+CONNECT_TIMEOUT_S = 30.0
+"""How long to try reaching a Dask scheduler before giving up [s]."""
+
+
+def run_scenario(task: dict) -> dict:
+    """Run one scenario (on a worker) as ``warp-cut run`` would.
+
+    task: ``{"base": scene dict, "path": scene file (str), "overrides": [section.key=value]}``.
+    Returns ``{"status", "message", "files": {name: bytes}, "worker_time_s", "host"}``; errors
+    of the scenario become a status, never an exception, so one scenario cannot stop others.
+    """
+    from .cli import _quiet_warp
+    from .runner import run_scene, write_outputs
+    from .scene import apply_overrides, parse_scene
+
+    start = time.perf_counter()
+    outcome = {"status": "ok", "message": "", "files": {}, "host": socket.gethostname()}
+    try:
+        _quiet_warp()
+        data = apply_overrides(task["base"], task["overrides"], task["path"])
+        result = run_scene(parse_scene(data, task["path"]), quiet=True)
+        with tempfile.TemporaryDirectory(prefix="warp-cut-run-") as tmp:
+            outcome["files"] = {p.name: p.read_bytes() for p in write_outputs(result, tmp)}
+    except SimulationUnstable as exc:
+        outcome.update(status="unstable", message=str(exc))
+    except InputError as exc:
+        outcome.update(status="failed", message=str(exc))
+    except Exception as exc:  # noqa: BLE001 - any error of one scenario is recorded, not fatal
+        outcome.update(status="failed", message=f"{type(exc).__name__}: {exc}")
+    outcome["worker_time_s"] = time.perf_counter() - start
+    return outcome
+
+
+@dataclass
+class BatchSummary:
+    """Counts of a batch: scenarios in the sweep, found finished, run now, by status."""
+
+    total: int
+    skipped: int = 0
+    counts: dict = field(default_factory=lambda: dict.fromkeys(STATUSES, 0))
+    lost: list = field(default_factory=list)
+    """(id, message) of scenarios whose worker was lost; they run again on the next call."""
+
+    @property
+    def all_ok(self) -> bool:
+        return self.counts["ok"] == self.total
+
+    def line(self) -> str:
+        parts = [f"{self.counts[s]} {s}" for s in STATUSES]
+        if self.lost:
+            parts.append(f"{len(self.lost)} lost (rerun to retry)")
+        return (f"{self.total} scenarios ({self.skipped} already done): " + ", ".join(parts))
+
+
+def _open_executor(workers: int | None, scheduler: str | None):
+    """(executor, close) for the local pool or a Dask cluster."""
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise InputError("--scheduler needs Dask: pip install 'warp-cut[cluster]'") from None
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(f"--scheduler {scheduler}: cannot connect ({exc})") from exc
+
+        def close(wait: bool) -> None:
+            client.close()
+
+        return client.get_executor(pure=False), close
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers must be >= 1, got {workers}")
+    workers = workers or os.cpu_count() or 1
+    # spawn: a fresh interpreter per worker, never a fork of a process with Warp initialised
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+
+    def close(wait: bool) -> None:
+        pool.shutdown(wait=wait, cancel_futures=True)
+
+    return pool, close
+
+
+class _Progress:
+    """done / failed / remaining: a tqdm bar on a terminal, else one line per scenario."""
+
+    def __init__(self, total: int, done: int, failed: int, enabled: bool):
+        self.total, self.done, self.failed = total, done, failed
+        self.enabled = enabled
+        self.bar = None
+        if enabled and sys.stderr.isatty():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, initial=done, unit="scenario", desc="batch")
+            self.bar.set_postfix_str(self._text())
+
+    def _text(self) -> str:
+        return f"done {self.done}, failed {self.failed}, remaining {self.total - self.done}"
+
+    def update(self, scenario_id: str, status: str) -> None:
+        self.done += 1
+        self.failed += status != "ok"
+        if self.bar is not None:
+            self.bar.set_postfix_str(self._text(), refresh=False)
+            self.bar.update(1)
+        elif self.enabled:
+            print(f"[{self.done}/{self.total}] {status:8s} {scenario_id}  ({self._text()})",
+                  file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: str | None = None,
+              retry_failed: bool = False, progress: bool = False) -> BatchSummary:
+    """Run every scenario of ``sweep`` not already finished in ``out_dir``.
+
+    workers: local process pool size (default: the number of cores); scheduler: a Dask
+    scheduler address instead of the pool. retry_failed: run failed and unstable scenarios
+    again. Results land in ``out_dir`` as each scenario finishes; on KeyboardInterrupt the
+    finished ones are kept and the rest are cancelled.
+    """
+    summary = BatchSummary(total=len(sweep.scenarios))
+    store = BatchStore(out_dir, sweep)
+    executor, close = _open_executor(workers, scheduler)  # bad options fail before any write
+    finished = False
+    try:
+        with store:
+            todo = store.load_finished(retry_failed=retry_failed)
+            store.write_results()
+            summary.skipped = summary.total - len(todo)
+            for record in store.records.values():
+                summary.counts[record["status"]] += 1
+            bar = _Progress(summary.total, summary.skipped,
+                            summary.skipped - summary.counts["ok"], progress)
+            try:
+                futures = {executor.submit(run_scenario, {
+                    "base": sweep.base_data, "path": str(sweep.base_path),
+                    "overrides": sweep.overrides(s)}): s for s in todo}
+                for future in cf.as_completed(futures):
+                    scenario = futures.pop(future)
+                    try:
+                        outcome = future.result()
+                    except Exception as exc:  # noqa: BLE001 - the worker, not the scenario, failed
+                        summary.lost.append((scenario.id, f"{type(exc).__name__}: {exc}"))
+                        bar.update(scenario.id, "lost")
+                        continue
+                    store.commit(scenario, outcome)
+                    summary.counts[outcome["status"]] += 1
+                    bar.update(scenario.id, outcome["status"])
+            finally:
+                for future in futures:
+                    future.cancel()
+                bar.close()
+        finished = True
+    finally:
+        close(wait=finished)  # after Ctrl-C, do not wait for scenarios still running
+    return summary
