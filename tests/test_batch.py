@@ -44,6 +44,10 @@ def _metrics(run_dir: Path) -> dict:
     return {k: v for k, v in metrics.items() if k not in WALL_FIELDS}
 
 
+def _files(run_dir: Path) -> set:
+    return {p.name for p in run_dir.iterdir()}
+
+
 def _entries(out) -> set:
     return {p.name for p in (Path(out) / "runs").iterdir()}
 
@@ -75,9 +79,11 @@ def test_pool_runs_every_scenario_as_warp_cut_run_does(pool_run, tmp_path):
     for item in record["overrides"]:
         args += ["--set", item]
     assert main(args) == 0
-    assert _metrics(out / "runs" / scenario.id) == _metrics(tmp_path / "single")
-    assert ((out / "runs" / scenario.id / "timeseries.csv").read_bytes()
-            == (tmp_path / "single" / "timeseries.csv").read_bytes())
+    ours, theirs = out / "runs" / scenario.id, tmp_path / "single"
+    assert _metrics(ours) == _metrics(theirs)
+    assert _files(ours) == _files(theirs) | {"scenario.json"}
+    for name in _files(theirs) - {"metrics.json"}:  # time series, final mesh: byte for byte
+        assert (ours / name).read_bytes() == (theirs / name).read_bytes()
     # the csv carries the metrics of metrics.json
     row = rows[-1]
     m = _metrics(out / "runs" / scenario.id)
@@ -96,9 +102,11 @@ def test_dask_cluster_gives_identical_metrics(pool_run, tmp_path):
                      cluster.scheduler_address, "--quiet"]) == 0
     assert _entries(out) == _entries(pool_out)
     for name in _entries(out):
-        assert _metrics(out / "runs" / name) == _metrics(pool_out / "runs" / name)
-        assert ((out / "runs" / name / "timeseries.csv").read_bytes()
-                == (pool_out / "runs" / name / "timeseries.csv").read_bytes())
+        ours, theirs = out / "runs" / name, pool_out / "runs" / name
+        assert _metrics(ours) == _metrics(theirs)
+        assert _files(ours) == _files(theirs)
+        for file in _files(ours) - {"metrics.json", "scenario.json"}:
+            assert (ours / file).read_bytes() == (theirs / file).read_bytes()
     drop = lambda row: {k: v for k, v in row.items() if k not in WALL_FIELDS | {"worker_time_s"}}
     assert [drop(r) for r in _rows(out)] == [drop(r) for r in _rows(pool_out)]
 
@@ -130,7 +138,8 @@ def test_killed_batch_resumes_with_one_row_per_scenario(tmp_path, capsys):
     before = {}
     for name in finished:  # every run directory present is whole
         run = out / "runs" / name
-        assert {p.name for p in run.iterdir()} == {"metrics.json", "timeseries.csv", "scenario.json"}
+        assert {"metrics.json", "timeseries.csv", "scenario.json"} <= _files(run)
+        assert not [n for n in _files(run) if n.startswith(".")]
         before[name] = (run.stat().st_ino, (run / "metrics.json").stat().st_mtime_ns)
 
     assert main(["batch", sweep, "--out", str(out), "--workers", "2", "--quiet"]) == 0
