@@ -25,6 +25,7 @@ from pathlib import Path
 
 from .errors import InputError
 from .io import write_csv, write_json
+from .scene import apply_overrides
 from .sweep import Scenario, Sweep, toml_value
 
 __all__ = ["BatchStore", "flatten_metrics", "STATUSES", "RECORD_FILE", "RESULTS_FILE",
@@ -209,8 +210,6 @@ class BatchStore:
     def _base_values(self) -> dict:
         """Each swept key's value in the base scene after ``[set]`` ('' where the scene
         default applies)."""
-        from .scene import apply_overrides
-
         data = apply_overrides(self.sweep.base_data, list(self.sweep.settings), self.sweep.path)
         return {k: self._cell(_lookup(data, k)) for k in self.sweep.parameters}
 
