@@ -24,7 +24,7 @@ TINY = """base = "skin_press"
 "tissue.size" = [0.02, 0.02]
 duration = 0.3
 """
-WALL_FIELDS = {"wall_time_s", "realtime_factor"}
+WALL_FIELDS = {"wall_time_s", "realtime_factor", "usd_write_time_s"}
 """Metrics that measure the machine, not the simulation."""
 
 
@@ -40,12 +40,16 @@ def _rows(out) -> list[dict]:
 
 
 def _metrics(run_dir: Path) -> dict:
+    """metrics.json without wall times, checking that the USD it names is in ``run_dir``."""
     metrics = json.loads((run_dir / "metrics.json").read_text())
+    if "usd_file" in metrics:
+        assert Path(metrics.pop("usd_file")) == run_dir / "skin_press.usdc"
     return {k: v for k, v in metrics.items() if k not in WALL_FIELDS}
 
 
 def _files(run_dir: Path) -> set:
-    return {p.name for p in run_dir.iterdir()}
+    """Every file under run_dir, as relative paths."""
+    return {p.relative_to(run_dir).as_posix() for p in run_dir.rglob("*") if p.is_file()}
 
 
 def _entries(out) -> set:
@@ -107,7 +111,8 @@ def test_dask_cluster_gives_identical_metrics(pool_run, tmp_path):
         assert _files(ours) == _files(theirs)
         for file in _files(ours) - {"metrics.json", "scenario.json"}:
             assert (ours / file).read_bytes() == (theirs / file).read_bytes()
-    drop = lambda row: {k: v for k, v in row.items() if k not in WALL_FIELDS | {"worker_time_s"}}
+    drop = lambda row: {k: v for k, v in row.items()
+                        if k not in WALL_FIELDS | {"worker_time_s", "usd_file"}}
     assert [drop(r) for r in _rows(out)] == [drop(r) for r in _rows(pool_out)]
 
 
@@ -207,6 +212,19 @@ def test_changed_base_scene_reruns_its_scenarios(tmp_path, capsys):
     assert "(0 already done)" in capsys.readouterr().out
     assert float(_rows(out)[0]["sim_time_s"]) == pytest.approx(0.1)
     assert _entries(out) == {"material.stiffness=80.0"}
+
+
+def test_worker_without_the_scene_file_runs_the_text_it_was_sent():
+    from warp_cut.scene import bundled_scene_path
+
+    text = bundled_scene_path("skin_press").read_text()
+    outcome = batch.run_scenario({
+        "scene_text": text, "scene_path": "/nonexistent/elsewhere/skin_press.toml",
+        "overrides": ["tissue.size=[0.02, 0.02]", "duration=0.05"], "run_args": ["--no-usd"]})
+    assert outcome["status"] == "ok", outcome["message"]
+    metrics = json.loads(outcome["files"]["metrics.json"])
+    assert metrics["name"] == "skin_press" and metrics["sim_time_s"] == pytest.approx(0.05)
+    assert "timeseries.csv" in outcome["files"] and not any(f.endswith(".usdc") for f in outcome["files"])
 
 
 def test_bad_input_exit_2_and_nothing_written(tmp_path, capsys, monkeypatch):

@@ -84,6 +84,13 @@ def test_base_relative_to_sweep_file_and_inline(tmp_path):
     assert inline.base_path == tmp_path / "s.toml" and inline.command(inline.scenarios[0]) is None
 
 
+def test_inline_base_text_is_the_scene_with_mesh_path_made_absolute(tmp_path):
+    sweep = _sweep(tmp_path, '[base]\nname = "m"\n[base.tissue]\nkind = "mesh"\n'
+                             'path = "meshes/skin.obj"\n')
+    assert tomllib.loads(sweep.base_text) == sweep.base_data
+    assert sweep.base_data["tissue"]["path"] == str(tmp_path.resolve() / "meshes" / "skin.obj")
+
+
 def test_no_parameters_gives_one_base_scenario(tmp_path):
     sweep = _sweep(tmp_path, 'base = "skin_press"\n')
     assert [s.id for s in sweep.scenarios] == ["base"] and sweep.parameters == []

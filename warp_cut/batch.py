@@ -2,13 +2,15 @@
 
 Both backends are ``concurrent.futures`` executors: a ``ProcessPoolExecutor`` here, or the
 executor of a ``distributed.Client`` (``--scheduler tcp://host:port``). A worker runs one
-scenario exactly as ``warp-cut run`` does and sends back the files it wrote, so workers need
-no shared filesystem; this process alone writes ``DIR`` (see ``batch_store``).
+scenario as ``warp-cut run BASE --set ...`` into a temporary directory and sends back the files
+it wrote, so workers need no shared filesystem; this process alone writes ``DIR`` (see
+``batch_store``).
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import multiprocessing
 import os
 import socket
@@ -16,6 +18,7 @@ import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from .batch_store import STATUSES, BatchStore
 from .errors import InputError, SimulationUnstable
@@ -27,25 +30,44 @@ CONNECT_TIMEOUT_S = 30.0
 """How long to try reaching a Dask scheduler before giving up [s]."""
 
 
-def run_scenario(task: dict) -> dict:
-    """Run one scenario (on a worker) as ``warp-cut run`` would.
+def _scene_file(task: dict, tmp: Path) -> Path:
+    """The base scene file on this worker: the sweep's own file when it is here unchanged,
+    else a copy of the text it was sent under the same file name (so the same scene name)."""
+    original = Path(task["scene_path"])
+    with contextlib.suppress(OSError):
+        if original.is_file() and original.read_text(encoding="utf-8") == task["scene_text"]:
+            return original
+    copy = tmp / "scene" / original.name
+    copy.parent.mkdir()
+    copy.write_text(task["scene_text"], encoding="utf-8")
+    return copy
 
-    task: ``{"base": scene dict, "path": scene file (str), "overrides": [section.key=value]}``.
-    Returns ``{"status", "message", "files": {name: bytes}, "worker_time_s", "host"}``; errors
-    of the scenario become a status, never an exception, so one scenario cannot stop others.
+
+def run_scenario(task: dict) -> dict:
+    """Run one scenario (on a worker): ``warp-cut run SCENE --set ... --out TMP`` itself.
+
+    task: ``{"scene_text": base scene TOML, "scene_path": its file (str), "overrides":
+    [section.key=value, ...], "run_args": [extra warp-cut run options]}``.
+    Returns ``{"status", "message", "files": {relative path: bytes}, "worker_time_s", "host"}``;
+    errors of the scenario become a status, never an exception, so one cannot stop the others.
     """
-    from .cli import _quiet_warp
-    from .runner import run_scene, write_outputs
-    from .scene import apply_overrides, parse_scene
+    from .cli import _quiet_warp, build_parser
 
     start = time.perf_counter()
     outcome = {"status": "ok", "message": "", "files": {}, "host": socket.gethostname()}
     try:
         _quiet_warp()
-        data = apply_overrides(task["base"], task["overrides"], task["path"])
-        result = run_scene(parse_scene(data, task["path"]), quiet=True)
         with tempfile.TemporaryDirectory(prefix="warp-cut-run-") as tmp:
-            outcome["files"] = {p.name: p.read_bytes() for p in write_outputs(result, tmp)}
+            out = Path(tmp) / "run"
+            argv = ["run", str(_scene_file(task, Path(tmp))), "--out", str(out), "--quiet",
+                    *task.get("run_args", [])]
+            for item in task["overrides"]:
+                argv += ["--set", item]
+            args = build_parser().parse_args(argv)
+            args.func(args)
+            outcome["files"] = {p.relative_to(out).as_posix(): p.read_bytes()
+                                for p in sorted(out.rglob("*")) if p.is_file()}
+            outcome["out_dir"] = str(out)
     except SimulationUnstable as exc:
         outcome.update(status="unstable", message=str(exc))
     except InputError as exc:
@@ -137,12 +159,13 @@ class _Progress:
 
 
 def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: str | None = None,
-              retry_failed: bool = False, progress: bool = False) -> BatchSummary:
+              retry_failed: bool = False, run_args=(), progress: bool = False) -> BatchSummary:
     """Run every scenario of ``sweep`` not already finished in ``out_dir``.
 
     workers: local process pool size (default: the number of cores); scheduler: a Dask
     scheduler address instead of the pool. retry_failed: run failed and unstable scenarios
-    again. Results land in ``out_dir`` as each scenario finishes; on KeyboardInterrupt the
+    again. run_args: extra ``warp-cut run`` options for every scenario (e.g. ``["--no-usd"]``).
+    Results land in ``out_dir`` as each scenario finishes; on KeyboardInterrupt the
     finished ones are kept and the rest are cancelled.
     """
     summary = BatchSummary(total=len(sweep.scenarios))
@@ -160,8 +183,8 @@ def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: s
                             summary.skipped - summary.counts["ok"], progress)
             try:
                 futures = {executor.submit(run_scenario, {
-                    "base": sweep.base_data, "path": str(sweep.base_path),
-                    "overrides": sweep.overrides(s)}): s for s in todo}
+                    "scene_text": sweep.base_text, "scene_path": str(sweep.base_path),
+                    "overrides": sweep.overrides(s), "run_args": list(run_args)}): s for s in todo}
                 for future in cf.as_completed(futures):
                     scenario = futures.pop(future)
                     try:

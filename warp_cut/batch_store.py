@@ -68,6 +68,24 @@ def _umask() -> int:
     return mask
 
 
+def _relocate(metrics_json: bytes, worker_out: str | None, run_dir: str) -> bytes:
+    """metrics.json with paths into the worker's output directory (``usd_file``, say) pointed
+    at the run directory the files now live in."""
+    if not worker_out:
+        return metrics_json
+
+    def move(value):
+        if isinstance(value, dict):
+            return {k: move(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [move(v) for v in value]
+        if isinstance(value, str) and (value == worker_out or value.startswith(worker_out + os.sep)):
+            return run_dir + value[len(worker_out):]
+        return value
+
+    return (json.dumps(move(json.loads(metrics_json)), indent=2) + "\n").encode("utf-8")
+
+
 def _lookup(data: dict, key: str):
     node = data
     for part in key.split("."):
@@ -162,15 +180,23 @@ class BatchStore:
         tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{scenario.id[:40]}-", dir=self.runs))
         try:
             os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp's private 0700 is not meant for results
-            for name, data in outcome.get("files", {}).items():
-                (tmp / Path(name).name).write_bytes(data)
+            files = dict(outcome.get("files", {}))
+            if "metrics.json" in files:
+                files["metrics.json"] = _relocate(files["metrics.json"], outcome.get("out_dir"),
+                                                  str(self.runs / scenario.id))
+            for name, data in files.items():
+                target = (tmp / name).resolve()
+                if tmp.resolve() not in target.parents:
+                    raise ValueError(f"{scenario.id}: output file {name!r} is outside its run directory")
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_bytes(data)
             write_json(tmp / RECORD_FILE, record)
             self._replace(tmp, self.runs / scenario.id)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
         if record["status"] == "ok":
-            record["metrics"] = json.loads(outcome["files"]["metrics.json"])
+            record["metrics"] = json.loads(files["metrics.json"])
         self.records[scenario.id] = record
         self.write_results()
         return record

@@ -131,7 +131,8 @@ def _cmd_batch(args) -> int:
     out = args.out or os.path.join("out", sweep.path.stem)
     try:
         summary = run_batch(sweep, out, workers=args.workers, scheduler=args.scheduler,
-                            retry_failed=args.retry_failed, progress=not args.quiet)
+                            retry_failed=args.retry_failed, progress=not args.quiet,
+                            run_args=["--no-usd"] if args.no_usd else [])
     except KeyboardInterrupt:
         print(f"warp-cut: interrupted; finished scenarios are kept in {out}; run the same "
               "command again to run the rest", file=sys.stderr)
@@ -217,6 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="Dask scheduler, e.g. tcp://host:8786 (needs warp-cut[cluster])")
     bat.add_argument("--retry-failed", action="store_true",
                      help="run failed and unstable scenarios again (finished ones are kept)")
+    bat.add_argument("--no-usd", action="store_true", help="runs write no USD (warp-cut run --no-usd)")
     bat.add_argument("--plot", action="store_true", help="draw metrics against parameters")
     bat.add_argument("--quiet", action="store_true", help="no progress output")
     bat.set_defaults(func=_cmd_batch)

@@ -21,6 +21,7 @@ its own parameters applied, exactly as ``warp-cut run BASE --set KEY=VALUE ...``
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import itertools
 import json
@@ -66,13 +67,15 @@ class Scenario:
 class Sweep:
     """A parsed sweep file.
 
-    base_data: the base scene as loaded from TOML; base_path: the file scene errors and relative
-    mesh paths refer to (the base scene file, or the sweep file for an inline base);
+    base_data: the base scene as loaded from TOML; base_text: its TOML source (an inline base
+    written out, its relative mesh path made absolute); base_path: the base scene file (the
+    sweep file for an inline base, whose default scene name is then the sweep file's stem);
     settings: the ``[set]`` overrides; parameters: every swept key, in order.
     """
 
     path: Path
     base_data: dict
+    base_text: str
     base_path: Path
     base_inline: bool
     settings: tuple
@@ -165,11 +168,25 @@ def _table(path, data: dict, key: str) -> dict:
     return value
 
 
+def _inline_base(path: Path, base: dict):
+    """(data, text) of an inline base; a relative ``tissue.path`` resolves against the sweep file."""
+    import tomli_w
+
+    base = copy.deepcopy(base)
+    tissue = base.get("tissue")
+    if isinstance(tissue, dict) and isinstance(tissue.get("path"), str):
+        tissue["path"] = str((path.parent / tissue["path"]).resolve())
+    try:
+        return base, tomli_w.dumps(base)
+    except (TypeError, ValueError) as exc:
+        raise SceneError(path, "base", f"cannot be written as a scene file: {exc}") from exc
+
+
 def _load_base(path: Path, data: dict):
-    """(base_data, base_path, inline) of the sweep's ``base`` key."""
+    """(base_data, base_text, base_path, inline) of the sweep's ``base`` key."""
     base = data.get("base")
     if isinstance(base, dict):
-        return base, path, True
+        return (*_inline_base(path, base), path.resolve(), True)
     if not isinstance(base, str) or not base:
         raise SceneError(path, "base", "is required: a scene file relative to the sweep file, "
                                        "a bundled scene name, or an inline [base] table")
@@ -181,7 +198,8 @@ def _load_base(path: Path, data: dict):
                                            f"{', '.join(bundled_scene_names())})")
         candidate = bundled
     try:
-        return tomllib.loads(candidate.read_text(encoding="utf-8")), candidate.resolve(), False
+        text = candidate.read_text(encoding="utf-8")
+        return tomllib.loads(text), text, candidate.resolve(), False
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise SceneError(candidate, "file", f"is not valid TOML: {exc}") from exc
 
@@ -245,7 +263,7 @@ def parse_sweep(data: dict, path) -> Sweep:
         if key.startswith(TAG_PREFIX):
             raise SceneError(path, f"set.\"{key}\"", "tags label swept scenarios; not allowed in [set]")
     grid, cases = _grid(path, data), _cases(path, data)
-    base_data, base_path, inline = _load_base(path, data)
+    base_data, base_text, base_path, inline = _load_base(path, data)
     settings = tuple(f"{k}={toml_value(v)}" for k, v in settings.items())
     apply_overrides(base_data, list(settings), path)  # a [set] key that cannot apply fails here
 
@@ -265,7 +283,8 @@ def parse_sweep(data: dict, path) -> Sweep:
             scenarios.append(Scenario(sid if repeat == 1 else f"{sid}__rep{rep}", params, rep,
                                       overrides))
     parameters = list(dict.fromkeys(k for p in param_sets for k in p))
-    return Sweep(path=path, base_data=base_data, base_path=base_path, base_inline=inline,
+    return Sweep(path=path, base_data=base_data, base_text=base_text, base_path=base_path,
+                 base_inline=inline,
                  settings=settings,
                  repeat=repeat, parameters=parameters, scenarios=scenarios)
 
