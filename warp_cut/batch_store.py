@@ -38,14 +38,14 @@ RECORD_FILE = "scenario.json"
 RESULTS_FILE = "results.csv"
 MANIFEST_FILE = "batch.json"
 _TEMP_PREFIXES = (".tmp-", ".old-")
-_SKIPPED_METRICS = {"name", "scene_file"}
+_SKIPPED_METRICS = {"name", "scene_file", "usd_file"}
 
 
 def flatten_metrics(metrics: dict, prefix: str = "") -> dict:
     """Scalar metrics by dotted name; short lists of scalars become ``key.0``, ``key.1``, ...
 
-    Nested tables (``cut.deleted_nodes``) are flattened; long lists and text identifying the
-    run (name, scene file) are left out.
+    Nested tables (``cut.deleted_nodes``) are flattened; long lists and the run's name and
+    file paths (scene, USD) are left out.
     """
     flat: dict = {}
     for key, value in metrics.items():
