@@ -20,8 +20,9 @@ from .io import atomic_path
 
 __all__ = ["plot_results", "read_results", "KEY_METRICS"]
 
-KEY_METRICS = ("incision.width_m", "incision.max_deviation_m", "cut.residual_links", "mesh.slivers",
-               "mesh.min_angle_deg", "first_contact_time_s", "first_contact_point.0",
+KEY_METRICS = ("width_curve.plateau_m", "width_curve.peak_m", "incision.width_m",
+               "incision.max_deviation_m", "cut.residual_links", "mesh.slivers",
+               "first_contact_time_s", "first_contact_time_exact_s", "first_contact_point.0",
                "first_contact_point.1", "max_tool_force_n", "stable_step_s", "realtime_factor",
                "wall_time_s")
 """Metrics drawn first when present (others that vary follow, up to MAX_PANELS in all)."""
