@@ -58,6 +58,14 @@ def segment_segment_distance(p0: wp.vec3, p1: wp.vec3, q0: wp.vec3, q1: wp.vec3)
     return wp.length((p0 + d1 * s) - (q0 + d2 * t))
 
 
+@wp.func
+def append_hit(hits: wp.array(dtype=wp.int32), hit_count: wp.array(dtype=wp.int32), value: int):
+    """Append ``value`` to the compact hit list (counted even when the list is full)."""
+    k = wp.atomic_add(hit_count, 0, 1)
+    if k < hits.shape[0]:
+        hits[k] = value
+
+
 @wp.kernel
 def capsule_node_hits_among(
     positions: wp.array(dtype=wp.vec3),
@@ -76,9 +84,7 @@ def capsule_node_hits_among(
     if (node_flags[i] & 1) == 0:
         return
     if point_segment_distance(positions[i], a, b) < radius:
-        k = wp.atomic_add(hit_count, 0, 1)
-        if k < hits.shape[0]:
-            hits[k] = i
+        append_hit(hits, hit_count, i)
 
 
 @wp.kernel
@@ -100,6 +106,4 @@ def capsule_spring_hits_among(
     if i < 0 or j < 0:
         return
     if segment_segment_distance(positions[i], positions[j], a, b) < radius:
-        k = wp.atomic_add(hit_count, 0, 1)
-        if k < hits.shape[0]:
-            hits[k] = s
+        append_hit(hits, hit_count, s)
