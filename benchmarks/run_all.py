@@ -22,6 +22,7 @@ wp.config.quiet = True
 import bench_compile  # noqa: E402
 import bench_cut_latency  # noqa: E402
 import bench_pareto  # noqa: E402
+import bench_pareto_incision  # noqa: E402
 import bench_realtime  # noqa: E402
 import bench_stable_step  # noqa: E402
 import bench_throughput  # noqa: E402
@@ -33,6 +34,7 @@ def main(argv=None) -> int:
     wp.init()
     start = time.perf_counter()
     parts = [("throughput", bench_throughput), ("pareto (hanging sheet)", bench_pareto),
+             ("pareto (incision width curve)", bench_pareto_incision),
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
              ("compile time", bench_compile), ("cut event latency", bench_cut_latency)]
     for name, module in parts:
