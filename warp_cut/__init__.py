@@ -10,6 +10,7 @@ Model / State / Control / Solver, as in Warp's sim and Newton:
 
 from .collision import cylinder_contacts
 from .control import Tool, ToolPath
+from .cutting import CutSettings
 from .errors import (InputError, SceneError, SimulationUnstable, ToolStartsInside,
                      WarpCutError)
 from .material import Material
@@ -19,7 +20,7 @@ from .stability import StepLimit, stable_time_step
 from .state import State
 
 __all__ = [
-    "TissueModel", "Material", "State", "Tool", "ToolPath", "Simulator",
+    "TissueModel", "Material", "State", "Tool", "ToolPath", "Simulator", "CutSettings",
     "cylinder_contacts", "stable_time_step", "StepLimit",
     "WarpCutError", "InputError", "SceneError", "ToolStartsInside", "SimulationUnstable",
 ]
