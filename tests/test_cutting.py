@@ -159,7 +159,6 @@ def test_straight_cut_structure():
     yellow = np.flatnonzero(model.active & (cls == NodeClass.YELLOW))
     blue = np.flatnonzero(model.active & (cls == NodeClass.BLUE))
     assert len(yellow) >= 4 and len(blue) >= 6
-    ends = x[[inc.start_node, inc.end_node]]
     for v in yellow:  # a yellow node is joined to an end point of the curve
         partners = {int(p) for s in sim.cutter.editor.node_springs[v]
                     for p in model.spring_table.column("pairs")[s]} - {v}

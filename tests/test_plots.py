@@ -1,7 +1,6 @@
 """Pictures: written by a run, atomically, and showing what they claim to show."""
 
 import numpy as np
-import pytest
 from matplotlib.image import imread
 
 from warp_cut import Material, TissueModel

@@ -1,6 +1,5 @@
 """USD export: stage layout, values against the simulation, topology changes, a killed run."""
 
-import os
 import signal
 import subprocess
 import sys

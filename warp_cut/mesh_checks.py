@@ -75,9 +75,7 @@ _SHOW = 5  # how many offending elements a message lists
 from .triangle_geometry import (  # noqa: F401 - re-exported
     _as_points,
     _as_index_array,
-    _check_index_range,
     _as_pairs,
-    _corners,
     _cross_of_corners,
     _angles_of_corners,
     triangle_angles,
