@@ -28,7 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "spring_geometric_factor", "RowSums"]
+__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "node_step_limits",
+           "spring_geometric_factor", "RowSums"]
 
 
 @dataclass(frozen=True)
@@ -53,23 +54,37 @@ def spring_geometric_factor(lengths: np.ndarray, rest_lengths: np.ndarray) -> np
     return np.maximum(1.0, np.abs(1.0 - np.asarray(rest_lengths) / L))
 
 
+def _add_rows(sums, pairs, k, free, positions=None, rest=None, rows=None) -> None:
+    """Add the Gershgorin contributions of springs or links ``pairs`` (e, 2) of stiffness ``k``
+    (e,) to ``sums``: k g (1 + [other end free]) at each end (g, the geometric factor, when
+    ``rest`` lengths are given; ``positions`` indexable by a node list). ``rows``: a (node_count,)
+    mask of the rows to add to (default all)."""
+    if not len(pairs):
+        return
+    i, j = pairs[:, 0], pairs[:, 1]
+    if rest is not None:
+        lengths = np.linalg.norm(positions[j] - positions[i], axis=1)
+        k = k * spring_geometric_factor(lengths, rest)
+    for a, b in ((i, j), (j, i)):
+        keep = slice(None) if rows is None else rows[a]
+        np.add.at(sums, a[keep], (k * (1.0 + free[b]))[keep])
+
+
 def node_stiffness_sums(model, positions: np.ndarray | None = None) -> np.ndarray:
     """Gershgorin row sums R_i [N/m], (node_count,): springs and residual links at each node,
     counted twice unless the other end is pinned (see the module docstring)."""
     x = model.points if positions is None else np.asarray(positions, dtype=np.float64)
     sums = np.zeros(model.node_count)
     free = (~model.pinned).astype(np.float64)
-    pairs = [(model.springs, None), (model.links, model.link_force / np.maximum(model.link_smoothing, 1e-30))]
-    for edges, k in pairs:
-        if not len(edges):
-            continue
-        i, j = edges[:, 0], edges[:, 1]
-        if k is None:
-            lengths = np.linalg.norm(x[j] - x[i], axis=1)
-            k = model.stiffness * spring_geometric_factor(lengths, model.rest_lengths)
-        np.add.at(sums, i, k * (1.0 + free[j]))
-        np.add.at(sums, j, k * (1.0 + free[i]))
+    _add_rows(sums, model.springs, model.stiffness, free, x, model.rest_lengths)
+    _add_rows(sums, model.links, model.link_force / np.maximum(model.link_smoothing, 1e-30), free)
     return sums
+
+
+def node_step_limits(R, m, D) -> tuple[np.ndarray, np.ndarray]:
+    """(damped, undamped) stable steps [s] per node from row sums R [N/m] > 0, masses m [kg]
+    and damping D [N s/m] (see the module docstring)."""
+    return (D + np.sqrt(D * D + 4.0 * R * m)) / R, 2.0 * np.sqrt(m / R)
 
 
 def stable_time_step(model, positions: np.ndarray | None = None, *,
@@ -88,8 +103,8 @@ def stable_time_step(model, positions: np.ndarray | None = None, *,
     undamped = 2.0 / np.sqrt(w2)
     if not include_damping:
         return StepLimit(undamped, undamped, node, float(np.sqrt(w2)))
-    R, m, D = sums[candidates], model.masses[candidates], model.damping[candidates]
-    per_node = (D + np.sqrt(D * D + 4.0 * R * m)) / R
+    per_node, _ = node_step_limits(sums[candidates], model.masses[candidates],
+                                   model.damping[candidates])
     k = int(np.argmin(per_node))
     node = int(np.flatnonzero(candidates)[k])
     return StepLimit(float(per_node[k]), float(undamped), node, float(np.sqrt(w2)))
@@ -114,8 +129,9 @@ class RowSums:
         D = model.damping[nodes]
         ok = model.active[nodes] & ~model.pinned[nodes] & (R > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
-            self.damped[nodes] = np.where(ok, (D + np.sqrt(D * D + 4.0 * R * m)) / R, np.inf)
-            self.undamped[nodes] = np.where(ok, 2.0 * np.sqrt(m / R), np.inf)
+            damped, undamped = node_step_limits(R, m, D)
+        self.damped[nodes] = np.where(ok, damped, np.inf)
+        self.undamped[nodes] = np.where(ok, undamped, np.inf)
 
     def limit(self) -> StepLimit:
         """The current StepLimit (as ``stable_time_step`` would compute it)."""
@@ -135,24 +151,19 @@ class RowSums:
             self.sums = np.concatenate([self.sums, np.zeros(grow)])
             self.damped = np.concatenate([self.damped, np.full(grow, np.inf)])
             self.undamped = np.concatenate([self.undamped, np.full(grow, np.inf)])
-        springs, links = model.spring_table, model.link_table
-        pairs, rest, k = springs.column("pairs"), springs.column("rest_length"), springs.column("stiffness")
-        lpairs, lforce, leps = links.column("pairs"), links.column("force"), links.column("smoothing")
-        pinned = model.pinned
         nodes = np.asarray(sorted(nodes), dtype=np.int64)
-        for v in nodes:
-            total = 0.0
-            if model.active[v]:
-                for slot in editor.node_springs[v]:
-                    i, j = pairs[slot]
-                    other = j if i == v else i
-                    length = float(np.linalg.norm(positions[int(j)] - positions[int(i)]))
-                    g = float(spring_geometric_factor([length], [rest[slot]])[0])
-                    total += k[slot] * g * (1.0 + (not pinned[other]))
-                for slot in editor.node_links[v]:
-                    i, j = lpairs[slot]
-                    other = j if i == v else i
-                    total += lforce[slot] / leps[slot] * (1.0 + (not pinned[other]))
-            self.sums[v] = total
+        rows = np.zeros(model.node_count, dtype=bool)
+        rows[nodes] = model.active[nodes]
+        self.sums[nodes] = 0.0
+        free = (~model.pinned).astype(np.float64)
+        springs, links = model.spring_table, model.link_table
+        s = np.array(sorted({t for v in nodes[rows[nodes]] for t in editor.node_springs[v]}), np.int64)
+        if len(s):
+            _add_rows(self.sums, springs.column("pairs")[s], springs.column("stiffness")[s], free,
+                      positions, springs.column("rest_length")[s], rows)
+        l = np.array(sorted({t for v in nodes[rows[nodes]] for t in editor.node_links[v]}), np.int64)
+        if len(l):
+            _add_rows(self.sums, links.column("pairs")[l],
+                      links.column("force")[l] / links.column("smoothing")[l], free, rows=rows)
         if len(nodes):
             self._node_steps(nodes)
