@@ -197,6 +197,25 @@ def _pair_keys(sorted_pairs: np.ndarray, n: int) -> np.ndarray:
     return sorted_pairs[:, 0] * np.int64(n) + sorted_pairs[:, 1]
 
 
+def _check_indices(idx, prefix: str, noun: str, n: int, act, add):
+    """Report negative, out-of-range and inactive node indices of elements ``idx`` (e, k);
+    returns (rows whose indices are in range, idx with bad rows set to node 0)."""
+    neg = (idx < 0).any(axis=1)
+    high = (idx >= n).any(axis=1)
+    ok = ~(neg | high)
+    for check, mask, what in ((f"{prefix}_index_negative", neg, "negative node index"),
+                              (f"{prefix}_index_range", high, f"node index >= node count {n}")):
+        bad = np.flatnonzero(mask)
+        if bad.size:
+            add(check, bad.size, f"{bad.size} {noun}(s) with {what}; {noun}s {_first(bad)} -> nodes {_fmt(idx[bad[:_SHOW]])}")
+    safe = np.where(ok[:, None], idx, 0)
+    bad = np.flatnonzero(ok & ~act[safe].all(axis=1))
+    if bad.size:
+        add(f"{prefix}_inactive_node", bad.size,
+            f"{bad.size} {noun}(s) referencing inactive nodes; {noun}s {_first(bad)} -> nodes {_fmt(idx[bad[:_SHOW]])}")
+    return ok, safe
+
+
 def check_mesh(
     points,
     triangles,
@@ -295,19 +314,7 @@ def check_mesh(
         raise ValueError("expected_total_mass given but masses is None")
 
     # ---------------------------------------------------- triangle indices
-    tri_neg = (tri < 0).any(axis=1)
-    tri_high = (tri >= n).any(axis=1)
-    tri_ok = ~(tri_neg | tri_high)
-    for check, mask, what in (("tri_index_negative", tri_neg, "negative node index"),
-                              ("tri_index_range", tri_high, f"node index >= node count {n}")):
-        bad = np.flatnonzero(mask)
-        if bad.size:
-            add(check, bad.size, f"{bad.size} triangle(s) with {what}; triangles {_first(bad)} -> nodes {_fmt(tri[bad[:_SHOW]])}")
-    safe_tri = np.where(tri_ok[:, None], tri, 0)
-    bad = np.flatnonzero(tri_ok & ~act[safe_tri].all(axis=1))
-    if bad.size:
-        add("tri_inactive_node", bad.size,
-            f"{bad.size} triangle(s) referencing inactive nodes; triangles {_first(bad)} -> nodes {_fmt(tri[bad[:_SHOW]])}")
+    tri_ok, safe_tri = _check_indices(tri, "tri", "triangle", n, act, add)
 
     tri_rep = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
     bad = np.flatnonzero(tri_rep)
@@ -401,19 +408,7 @@ def check_mesh(
                 f"edges {_fmt(np.stack([k // n, k % n], 1))}; triangles {_first(np.unique(he_tri[incons[inv]]))}")
 
     # ------------------------------------------------------ spring indices
-    spr_neg = (spr < 0).any(axis=1)
-    spr_high = (spr >= n).any(axis=1)
-    spr_ok = ~(spr_neg | spr_high)
-    for check, mask, what in (("spring_index_negative", spr_neg, "negative node index"),
-                              ("spring_index_range", spr_high, f"node index >= node count {n}")):
-        bad = np.flatnonzero(mask)
-        if bad.size:
-            add(check, bad.size, f"{bad.size} spring(s) with {what}; springs {_first(bad)} -> nodes {_fmt(spr[bad[:_SHOW]])}")
-    safe_spr = np.where(spr_ok[:, None], spr, 0)
-    bad = np.flatnonzero(spr_ok & ~act[safe_spr].all(axis=1))
-    if bad.size:
-        add("spring_inactive_node", bad.size,
-            f"{bad.size} spring(s) referencing inactive nodes; springs {_first(bad)} -> nodes {_fmt(spr[bad[:_SHOW]])}")
+    spr_ok, safe_spr = _check_indices(spr, "spring", "spring", n, act, add)
 
     spr_self = spr[:, 0] == spr[:, 1]
     bad = np.flatnonzero(spr_self)
