@@ -11,20 +11,27 @@ from warp_cut.stability import spring_geometric_factor
 from conftest import DEVICE, chain_model
 
 
-def exact_limit(model, damping_per_mass=0.0):
-    """Exact linear stability limit of semi-implicit Euler from the eigenvalues of M^-1 K
-    (rest configuration, free nodes only), for mass-proportional damping c."""
+def free_stiffness_matrix(model):
+    """(K over the free nodes' coordinates, the (3 n,) mask of those coordinates): the
+    stiffness matrix at rest, where a spring is stiff only along itself."""
     n = model.node_count
     K = np.zeros((3 * n, 3 * n))
-    for (i, j), k, L0 in zip(model.springs, model.stiffness, model.rest_lengths):
+    for (i, j), k in zip(model.springs, model.stiffness):
         d = model.points[j] - model.points[i]
         u = d / np.linalg.norm(d)
-        block = k * np.outer(u, u)  # at rest length the transverse stiffness is zero
+        block = k * np.outer(u, u)
         for a, b, s in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
             K[3 * a:3 * a + 3, 3 * b:3 * b + 3] += s * block
     free = np.repeat(~model.pinned, 3)
+    return K[np.ix_(free, free)], free
+
+
+def exact_limit(model, damping_per_mass=0.0):
+    """Exact linear stability limit of semi-implicit Euler from the eigenvalues of M^-1 K
+    (rest configuration, free nodes only), for mass-proportional damping c."""
+    K, free = free_stiffness_matrix(model)
     minv = np.repeat(1.0 / np.sqrt(model.masses), 3)[free]
-    A = minv[:, None] * K[np.ix_(free, free)] * minv[None, :]
+    A = minv[:, None] * K * minv[None, :]
     w2 = np.linalg.eigvalsh(A).max()
     c = damping_per_mass
     return (c + math.sqrt(c * c + 4 * w2)) / w2
@@ -103,16 +110,7 @@ def test_geometric_factor_for_stretched_and_compressed_springs():
 def iteration_spectral_radius(model, h):
     """Spectral radius of one semi-implicit step with implicit damping, linearised at rest
     (free nodes): [x; v] -> [x + h v'; v'], v' = A (v - h M^-1 K x), A = (I + h D M^-1)^-1."""
-    n = model.node_count
-    K = np.zeros((3 * n, 3 * n))
-    for (i, j), k in zip(model.springs, model.stiffness):
-        d = model.points[j] - model.points[i]
-        u = d / np.linalg.norm(d)
-        block = k * np.outer(u, u)
-        for a, b, s in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
-            K[3 * a:3 * a + 3, 3 * b:3 * b + 3] += s * block
-    free = np.repeat(~model.pinned, 3)
-    K = K[np.ix_(free, free)]
+    K, free = free_stiffness_matrix(model)
     m = np.repeat(model.masses, 3)[free]
     c = np.repeat(model.damping, 3)[free] / m
     A = np.diag(1.0 / (1.0 + h * c))
