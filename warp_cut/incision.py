@@ -25,13 +25,23 @@ __all__ = ["Incision", "polyline_distance"]
 _SAMPLES_PER_SEGMENT = 48
 
 
-def polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance (m,) [m] of points (m, 3) to a polyline (k, 3)."""
+def closest_on_polyline(points: np.ndarray, poly: np.ndarray):
+    """For points (m, 3) and a polyline (k, 3): (segment index (m,), parameter on it in [0, 1]
+    (m,), closest point (m, 3) [m], distance (m,) [m])."""
     a, b = poly[:-1], poly[1:]
     ab = b - a
     denom = np.maximum((ab * ab).sum(axis=1), 1e-300)
     t = np.clip(((points[:, None, :] - a[None]) * ab[None]).sum(axis=2) / denom[None], 0.0, 1.0)
-    return np.linalg.norm(points[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=2).min(axis=1)
+    closest = a[None] + t[..., None] * ab[None]
+    dist = np.linalg.norm(points[:, None, :] - closest, axis=2)
+    k = np.argmin(dist, axis=1)
+    rows = np.arange(len(points))
+    return k, t[rows, k], closest[rows, k], dist[rows, k]
+
+
+def polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance (m,) [m] of points (m, 3) to a polyline (k, 3)."""
+    return closest_on_polyline(points, poly)[3]
 
 
 def _max_distance(points: np.ndarray, curve: BezierChain) -> float:
@@ -146,20 +156,11 @@ class Incision:
         """(u (m,) arc length of the closest curve point [m], side (m,) +1 left / -1 right,
         distance (m,) [m]) of points (m, 3)."""
         x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        a, b = self._poly[:-1], self._poly[1:]
-        ab = b - a
-        denom = np.maximum((ab * ab).sum(axis=1), 1e-300)
-        t = np.clip(((x[:, None, :] - a[None]) * ab[None]).sum(axis=2) / denom[None], 0.0, 1.0)
-        closest = a[None] + t[..., None] * ab[None]
-        dist = np.linalg.norm(x[:, None, :] - closest, axis=2)
-        k = np.argmin(dist, axis=1)
-        rows = np.arange(len(x))
-        seg_len = np.diff(self._cum)
-        u = self._cum[k] + t[rows, k] * seg_len[k]
-        tangent = self.tangent_at(u)
-        lateral = np.einsum("ij,ij->i", np.cross(tangent, x - closest[rows, k]), np.broadcast_to(self.normal, x.shape))
-        side = np.where(lateral >= 0.0, 1, -1)
-        return u, side, dist[rows, k]
+        k, t, closest, dist = closest_on_polyline(x, self._poly)
+        u = self._cum[k] + t * np.diff(self._cum)[k]
+        lateral = np.einsum("ij,ij->i", np.cross(self.tangent_at(u), x - closest),
+                            np.broadcast_to(self.normal, x.shape))
+        return u, np.where(lateral >= 0.0, 1, -1), dist
 
     def theta(self, u, side) -> np.ndarray:
         """Slit coordinate of points at arc length u [m] on a side (+1 left, -1 right)."""
