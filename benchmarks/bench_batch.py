@@ -29,10 +29,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from warp_cut.batch import run_batch
-from warp_cut.batch_store import BatchStore
-from warp_cut.io import atomic_path, write_csv
-from warp_cut.sweep import load_sweep
+from warp_cut.batch.pool import run_batch
+from warp_cut.batch.store import BatchStore
+from warp_cut.batch.sweep import load_sweep
+from warp_cut.io.files import atomic_path, write_csv
 
 RESULTS = Path(__file__).resolve().parent / "results"
 _TINY = '[set]\n"tissue.size" = [0.02, 0.02]\nduration = 0.01\n'

@@ -17,8 +17,8 @@ from pathlib import Path
 import warp as wp
 
 from warp_cut import Material, Simulator, TissueModel, Tool
-from warp_cut.ccd import ContinuousDetector
-from warp_cut.io import atomic_path
+from warp_cut.io.files import atomic_path
+from warp_cut.sim.ccd import ContinuousDetector
 
 RESULTS = Path(__file__).parent / "results"
 

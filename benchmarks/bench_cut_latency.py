@@ -20,7 +20,7 @@ import numpy as np
 import warp as wp
 
 from warp_cut import Simulator, TissueModel
-from warp_cut.cutting import STAGES, CutSettings
+from warp_cut.cut.cutter import STAGES, CutSettings
 
 SIZES = {"1k": (0.07, 0.05), "10k": (0.22, 0.16), "100k": (0.70, 0.50)}
 
@@ -31,10 +31,10 @@ def one_run(size) -> tuple[int, dict]:
     cutter = sim.cutter
     y = 0.5 * (model.points[1, 1] - model.points[0, 1]) + 1e-4  # off the lattice rows
     start, end = np.array([-0.02, y, 0.0]), np.array([0.02, y, 0.0])
-    cutter.start_incision(start, [0, 0, 1], 0.001)
+    cutter.start_incision(sim, start, [0, 0, 1], 0.001)
     steps = int(np.ceil(0.04 / 0.00033))
     for k in range(1, steps + 1):
-        cutter.extend_incision(start + (end - start) * k / steps)
+        cutter.extend_incision(sim, start + (end - start) * k / steps)
     return model.active_node_count, cutter.latency_summary()
 
 

@@ -14,12 +14,11 @@ from __future__ import annotations
 import time
 
 import numpy as np
-
 from common import RESULTS, markdown_table, write_csv, write_markdown
 
 from warp_cut import Material, SimulationUnstable, Simulator, TissueModel
-from warp_cut.stability import stable_time_step
-from warp_cut.stiffness import material_stiffness
+from warp_cut.sim.stability import stable_time_step
+from warp_cut.sim.stiffness import material_stiffness
 
 DURATION = 0.25
 SAMPLE = 0.005

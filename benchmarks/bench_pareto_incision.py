@@ -16,7 +16,6 @@ import sys
 import time
 
 import numpy as np
-
 from common import markdown_table, write_csv, write_markdown
 
 from warp_cut.runner import run_scene

@@ -11,12 +11,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
-
 from common import markdown_table, write_csv, write_markdown
 
 from warp_cut.runner import prepare_simulation
 from warp_cut.scene import load_scene
-
 
 SCENES = {"skin_press": 0.25, "straight_incision": None}
 """Scene -> simulated duration [s] (None: the scene's own)."""

@@ -1,4 +1,4 @@
-"""The stable step predicted (Gershgorin estimate, warp_cut.stability) against the exact linear
+"""The stable step predicted (Gershgorin estimate, warp_cut.sim.stability) against the exact linear
 limit (eigenvalues of M^-1 K) and the observed one (bisection on runs that stay bounded).
 
 Observed: the largest substep at which semi-implicit Euler keeps a randomly perturbed model
@@ -10,11 +10,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
 from common import markdown_table, write_csv, write_markdown
 
 from warp_cut import Material, SimulationUnstable, Simulator, TissueModel
-from warp_cut.stability import stable_time_step
+from warp_cut.sim.stability import stable_time_step
 
 
 def chain(n, m=1e-3, k=100.0, D=0.0):

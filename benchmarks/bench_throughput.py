@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 import warp as wp
-
 from common import interleaved, markdown_table, patch_for_springs, spread, write_csv, write_markdown
 from newton_step import NewtonSemiImplicit, available
 from numpy_step import NumpySemiImplicit
@@ -122,7 +121,6 @@ def _plot(rows):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
     from common import RESULTS
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2))

@@ -23,10 +23,10 @@ from types import SimpleNamespace
 import numpy as np
 
 from warp_cut import Material, TissueModel, Tool
-from warp_cut.classes import NodeClass
-from warp_cut.io import atomic_path
-from warp_cut.usd_check import check_usd, validate_usd
-from warp_cut.usd_export import UsdRecorder
+from warp_cut.cut.classes import NodeClass
+from warp_cut.io.files import atomic_path
+from warp_cut.io.usd_check import check_usd, validate_usd
+from warp_cut.io.usd_export import UsdRecorder
 
 RESULTS = Path(__file__).parent / "results"
 

@@ -40,7 +40,7 @@ def _exported_usd_passes_checks(request):
         return
     tmp = request.getfixturevalue("tmp_path")  # before the test, so it outlives this check
     yield
-    from warp_cut.usd_check import check_usd, validate_usd
+    from warp_cut.io.usd_check import check_usd, validate_usd
 
     for path in sorted(tmp.rglob("*.usd*")):
         if path.parent.name.endswith("_clips") or path.name.startswith("."):

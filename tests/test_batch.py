@@ -1,4 +1,4 @@
-"""warp_cut/batch.py, batch_store.py, report.py and ``warp-cut batch``: the process pool and a
+"""warp_cut/batch (pool, store, report) and ``warp-cut batch``: the process pool and a
 real Dask cluster give the same results, an interrupted batch resumes without losing or
 repeating work, and failing scenarios do not stop the others."""
 
@@ -13,11 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from warp_cut import batch
-from warp_cut.batch import run_batch
-from warp_cut.batch_store import BatchStore
+from warp_cut.batch import pool as batch
+from warp_cut.batch.pool import run_batch
+from warp_cut.batch.store import BatchStore
+from warp_cut.batch.sweep import load_sweep
 from warp_cut.cli import main
-from warp_cut.sweep import load_sweep
 
 TINY = """base = "skin_press"
 [set]
@@ -220,7 +220,7 @@ def test_worker_without_the_scene_file_runs_the_text_it_was_sent():
     text = bundled_scene_path("skin_press").read_text()
     outcome = batch.run_scenario({
         "scene_text": text, "scene_path": "/nonexistent/elsewhere/skin_press.toml",
-        "overrides": ["tissue.size=[0.02, 0.02]", "duration=0.05"], "run_args": ["--no-usd"]})
+        "overrides": ["tissue.size=[0.02, 0.02]", "duration=0.05"], "usd": False})
     assert outcome["status"] == "ok", outcome["message"]
     metrics = json.loads(outcome["files"]["metrics.json"])
     assert metrics["name"] == "skin_press" and metrics["sim_time_s"] == pytest.approx(0.05)

@@ -1,12 +1,20 @@
-"""Tests for warp_cut.bezier (paper stage 2, Eqs. 5-8) against independent answers."""
+"""Tests for warp_cut.cut.bezier (paper stage 2, Eqs. 5-8) against independent answers."""
 import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from warp_cut.bezier import (BEZIER_MATRIX, BezierChain, bernstein, cubic_basis,
-                             derivative_cubic, evaluate_cubic, fit_chain)
+from warp_cut.cut.bezier import (
+    BEZIER_MATRIX,
+    BezierChain,
+    bernstein,
+    cubic_basis,
+    derivative_cubic,
+    evaluate_cubic,
+    fit_chain,
+)
 
 RNG = np.random.default_rng(20210)
 

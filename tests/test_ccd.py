@@ -7,8 +7,8 @@ import pytest
 import warp as wp
 
 from warp_cut import Material, Simulator, TissueModel, Tool, ToolPath, cylinder_contacts
-from warp_cut.ccd import swept_first_contact
 from warp_cut.kernels.ccd import quartic_roots, vec5d
+from warp_cut.sim.ccd import swept_first_contact
 
 
 # ------------------------------------------------------------------ closed forms

@@ -4,12 +4,12 @@ push-out response and the reaction force on the tool."""
 import numpy as np
 import pytest
 import warp as wp
-from hypothesis import given, settings, strategies as st
+from conftest import DEVICE
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from warp_cut import Simulator, TissueModel, Tool, ToolStartsInside, cylinder_contacts
 from warp_cut.kernels.collision import cylinder_push_out
-
-from conftest import DEVICE
 
 
 def oracle(points, p0, p1, r):

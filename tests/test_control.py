@@ -1,9 +1,10 @@
 """warp_cut/control.py: keyframed tool poses are np.interp of each coordinate, held outside."""
 
 import numpy as np
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from warp_cut.control import ToolPath
+from warp_cut.sim.control import ToolPath
 
 
 @settings(max_examples=30, deadline=None)

@@ -7,15 +7,15 @@ at every edit is known; the width-time test runs the bundled straight incision.
 import numpy as np
 import pytest
 import warp as wp
-from hypothesis import HealthCheck, given, settings, strategies as st
+from conftest import DEVICE
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from warp_cut import Simulator, TissueModel, stable_time_step
-from warp_cut.classes import NodeClass, SpringClass
-from warp_cut.cutting import CutSettings
+from warp_cut.cut.classes import NodeClass, SpringClass
+from warp_cut.cut.cutter import CutSettings
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
-from warp_cut.mesh_checks import check_mesh, triangle_min_angles
-
-from conftest import DEVICE
+from warp_cut.mesh.checks import check_mesh, triangle_min_angles
 
 SPACING = 0.002
 
@@ -128,14 +128,14 @@ def assert_valid(sim, where=""):
 def cut_along(sim, points, radius=0.001, step=0.0003, check=True):
     """Start at points[0] and extend in steps of ``step`` [m] along the polyline."""
     cutter = sim.cutter
-    cutter.start_incision(points[0], [0, 0, 1], radius)
+    cutter.start_incision(sim, points[0], [0, 0, 1], radius)
     for a, b in zip(points[:-1], points[1:]):
         n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
         for k in range(1, n + 1):
-            cutter.extend_incision(a + (b - a) * k / n)
+            cutter.extend_incision(sim, a + (b - a) * k / n)
             if check:
                 assert_valid(sim, f"after the cut reached {a + (b - a) * k / n}")
-    cutter.end_incision()
+    cutter.end_incision(sim)
 
 
 def test_straight_cut_structure():
@@ -218,12 +218,12 @@ def test_crossing_an_earlier_cut_and_restarting():
     cut_along(sim, [np.array([0.0, -0.008, 0.0]), np.array([0.0, 0.008, 0.0])])
     # a tool that stops (zero-length moves change nothing) and goes on
     cutter = sim.cutter
-    cutter.start_incision(np.array([-0.01, 0.01, 0.0]), [0, 0, 1], 0.001)
-    cutter.extend_incision(np.array([-0.006, 0.01, 0.0]))
+    cutter.start_incision(sim, np.array([-0.01, 0.01, 0.0]), [0, 0, 1], 0.001)
+    cutter.extend_incision(sim, np.array([-0.006, 0.01, 0.0]))
     version = model.topology_version
-    cutter.extend_incision(np.array([-0.006, 0.01, 0.0]))
+    cutter.extend_incision(sim, np.array([-0.006, 0.01, 0.0]))
     assert model.topology_version == version
-    cutter.extend_incision(np.array([-0.002, 0.01, 0.0]))
+    cutter.extend_incision(sim, np.array([-0.002, 0.01, 0.0]))
     assert_valid(sim, "after the restart")
     assert len(cutter.incisions) == 3
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from warp_cut.cli import main
-from warp_cut.experiment_collision import analytic_first_contact, run_case
-from warp_cut.patch import skin_patch_mesh
+from warp_cut.experiments import analytic_first_contact, run_case
+from warp_cut.mesh.patch import skin_patch_mesh
 
 
 def _first_inside_by_sampling(points, tip0, a, speed, length, radius, t_max, samples=20001):

@@ -8,12 +8,11 @@ import math
 
 import numpy as np
 import pytest
-
-from warp_cut import Material, SimulationUnstable, Simulator, TissueModel, Tool
-from warp_cut.solver import INTEGRATORS
-
 from conftest import DEVICE, chain_model
 from test_stability import exact_limit
+
+from warp_cut import Material, SimulationUnstable, Simulator, TissueModel, Tool
+from warp_cut.solvers import INTEGRATORS
 
 ALL = sorted(INTEGRATORS)
 

@@ -2,10 +2,9 @@
 
 import numpy as np
 import pytest
+from conftest import DEVICE, chain_model
 
 from warp_cut import Simulator
-
-from conftest import DEVICE, chain_model
 
 
 @pytest.mark.parametrize("n_free", [1, 5, 12])

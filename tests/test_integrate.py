@@ -4,10 +4,9 @@ import math
 
 import numpy as np
 import pytest
+from conftest import DEVICE, chain_model
 
 from warp_cut import Simulator, TissueModel
-
-from conftest import DEVICE, chain_model
 
 
 def oscillator(k=40.0, m=0.01, damping=0.0, amplitude=0.01):

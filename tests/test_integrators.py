@@ -10,11 +10,10 @@ import math
 
 import numpy as np
 import pytest
+from conftest import DEVICE, chain_model
 
 from warp_cut import Simulator, TissueModel, Tool
-from warp_cut.solver import INTEGRATORS
-
-from conftest import DEVICE, chain_model
+from warp_cut.solvers import INTEGRATORS
 
 ALL = sorted(INTEGRATORS)
 

@@ -1,4 +1,4 @@
-"""Tests for warp_cut.mesh_checks (invariants and quality metrics).
+"""Tests for warp_cut.mesh.checks (invariants and quality metrics).
 
 Expected answers are computed independently of the module under test: by
 hand (known triangles), with plain Python sets/loops over small meshes, the
@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 try:
-    from warp_cut.mesh_checks import (
+    from warp_cut.mesh.checks import (
         CHECKS,
         MeshInvalid,
         MeshReport,

@@ -3,11 +3,12 @@
 import numpy as np
 import pytest
 import trimesh
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from warp_cut import InputError, Material, TissueModel
-from warp_cut.mesh_checks import check_mesh, triangle_min_angles
-from warp_cut.patch import skin_patch_mesh
+from warp_cut.mesh.checks import check_mesh, triangle_min_angles
+from warp_cut.mesh.patch import skin_patch_mesh
 
 
 @settings(max_examples=25, deadline=None)

@@ -4,9 +4,9 @@ import numpy as np
 from matplotlib.image import imread
 
 from warp_cut import Material, TissueModel
-from warp_cut.classes import NODE_CLASS_COLORS, NodeClass
 from warp_cut.cli import main
-from warp_cut.plots import RunPicture, plot_preview, write_run_plots
+from warp_cut.cut.classes import NODE_CLASS_COLORS, NodeClass
+from warp_cut.io.plots import RunPicture, plot_preview, write_run_plots
 
 
 def _has_color(img, rgb, tol=0.03):

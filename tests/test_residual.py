@@ -2,11 +2,10 @@
 
 import numpy as np
 import warp as wp
+from conftest import DEVICE
 
 from warp_cut import Material, TissueModel
 from warp_cut.kernels.residual import residual_link_forces
-
-from conftest import DEVICE
 
 
 def launch(x, links, F, eps):

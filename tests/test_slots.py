@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from warp_cut import TissueModel
-from warp_cut.device_model import DeviceModel
-from warp_cut.slots import SlotTable
+from warp_cut.sim.device_model import DeviceModel
+from warp_cut.sim.slots import SlotTable
 
 
 def test_append_kill_and_dirty_slots():

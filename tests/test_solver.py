@@ -8,11 +8,10 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import DEVICE
 
 from warp_cut import Simulator, TissueModel, Tool
-from warp_cut.solver import INTEGRATORS
-
-from conftest import DEVICE
+from warp_cut.solvers import INTEGRATORS
 
 SCRIPT = r"""
 import json, sys

@@ -2,11 +2,11 @@
 
 import numpy as np
 import warp as wp
-from hypothesis import given, settings, strategies as st
+from conftest import DEVICE
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from warp_cut.kernels.springs import spring_forces
-
-from conftest import DEVICE
 
 
 def launch(x, springs, L0, k):

@@ -4,11 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from conftest import DEVICE, chain_model
 
 from warp_cut import SimulationUnstable, Simulator, TissueModel, stable_time_step
-from warp_cut.stability import spring_geometric_factor
-
-from conftest import DEVICE, chain_model
+from warp_cut.sim.stability import spring_geometric_factor
 
 
 def free_stiffness_matrix(model):

@@ -8,7 +8,7 @@ import pytest
 
 from warp_cut import Material, TissueModel
 from warp_cut.scene import parse_scene
-from warp_cut.stiffness import material_stiffness
+from warp_cut.sim.stiffness import material_stiffness
 
 
 def test_equilateral_pair_by_hand():

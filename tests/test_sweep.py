@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from warp_cut.batch.sweep import load_sweep, parse_sweep, toml_value
 from warp_cut.errors import SceneError
 from warp_cut.scene import apply_overrides, load_scene, parse_scene
-from warp_cut.sweep import load_sweep, parse_sweep, toml_value
 
 
 def _sweep(tmp_path, text: str, name="s.toml"):

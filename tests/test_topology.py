@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from warp_cut import Material, TissueModel
-from warp_cut.mesh_checks import check_mesh
-from warp_cut.topology import NodePositions, TopologyEditor
+from warp_cut.cut.topology import NodePositions, TopologyEditor
+from warp_cut.mesh.checks import check_mesh
 
 
 def square():

@@ -5,7 +5,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from warp_cut.cli import main
-from warp_cut.usd_check import check_usd, validate_usd
+from warp_cut.io.usd_check import check_usd, validate_usd
 
 pytestmark = pytest.mark.invalid_usd
 

@@ -11,12 +11,12 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom
 
 from warp_cut import Material, TissueModel, Tool
-from warp_cut.classes import NODE_CLASS_COLORS, NodeClass
 from warp_cut.cli import main
+from warp_cut.cut.classes import NODE_CLASS_COLORS, NodeClass
+from warp_cut.io.usd_check import check_usd, validate_usd
+from warp_cut.io.usd_export import UsdRecorder, axis_quaternion
 from warp_cut.runner import run_scene
 from warp_cut.scene import load_scene
-from warp_cut.usd_check import check_usd, validate_usd
-from warp_cut.usd_export import UsdRecorder, axis_quaternion
 
 TINY = ["tissue.size=[0.02,0.02]", "duration=0.1"]
 

@@ -8,16 +8,15 @@ Model / State / Control / Solver, as in Warp's sim and Newton:
 * ``Simulator`` - binds them to a solver and steps in time.
 """
 
-from .collision import cylinder_contacts
-from .control import Tool, ToolPath
-from .cutting import CutSettings
-from .errors import (InputError, SceneError, SimulationUnstable, ToolStartsInside,
-                     WarpCutError)
-from .material import Material
-from .model import TissueModel
+from .cut.cutter import CutSettings
+from .errors import InputError, SceneError, SimulationUnstable, ToolStartsInside, WarpCutError
+from .sim.collision import cylinder_contacts
+from .sim.control import Tool, ToolPath
+from .sim.material import Material
+from .sim.model import TissueModel
+from .sim.stability import StepLimit, stable_time_step
+from .sim.state import State
 from .simulator import Simulator
-from .stability import StepLimit, stable_time_step
-from .state import State
 
 __all__ = [
     "TissueModel", "Material", "State", "Tool", "ToolPath", "Simulator", "CutSettings",

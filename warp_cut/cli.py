@@ -11,8 +11,16 @@ import argparse
 import os
 import sys
 
+from .batch.pool import run_batch
+from .batch.report import plot_results
+from .batch.sweep import load_sweep
 from .errors import InputError, SimulationUnstable
-from .usd_export import DEFAULT_CHUNK_FRAMES
+from .experiments import mean_abs_error_pct, run_experiment, write_report
+from .io.usd_check import check_usd, validate_usd
+from .io.usd_export import DEFAULT_CHUNK_FRAMES, flatten_usd
+from .runner import prepare_simulation, run_to_directory
+from .scene import load_scene
+from .sim.warp_config import quiet_warp
 
 __all__ = ["main"]
 
@@ -20,43 +28,12 @@ EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_UNSTABLE = 0, 1, 2, 3
 EXIT_SOME_FAILED, EXIT_INTERRUPTED = 1, 130
 
 
-def _quiet_warp() -> None:
-    import warp as wp
-
-    if hasattr(wp, "LOG_WARNING"):
-        wp.config.log_level = wp.LOG_WARNING
-    else:  # older Warp
-        wp.config.quiet = True
-
-
 def _cmd_run(args) -> int:
     """Run a scene; write metrics, time series, pictures and (unless --no-usd) USD."""
-    from .errors import WarpCutError
-    from .plots import FinalFrame, write_run_plots
-    from .runner import run_scene, write_outputs
-    from .scene import load_scene
-    from .usd_export import UsdRecorder
-
     scene = load_scene(args.scene, args.set)
     out = args.out or os.path.join("out", scene.name)
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise InputError(f"--out {out}: exists and is not a directory")
-    final = FinalFrame()
-    recorder = None
-    if not args.no_usd:
-        recorder = UsdRecorder(args.usd or os.path.join(out, f"{scene.name}.usdc"), scene,
-                               chunk_frames=args.usd_chunk)
-    try:
-        result = run_scene(scene, quiet=args.quiet,
-                           observers=[final] + ([recorder] if recorder else []))
-    except WarpCutError:
-        if recorder is not None:  # bad input or unstable: leave nothing behind
-            recorder.abort()
-        raise
-    written = write_outputs(result, out)
-    written += write_run_plots(out, result.columns, final.picture, scene.name)
-    if recorder is not None:
-        written.append(recorder.path)
+    result, written = run_to_directory(scene, out, usd=not args.no_usd, usd_path=args.usd,
+                                       usd_chunk=args.usd_chunk, quiet=args.quiet)
     if not args.quiet:
         m = result.metrics
         print(f"{scene.name}: {m['nodes']} nodes, {m['springs']} springs, {m['steps']} steps of "
@@ -68,9 +45,6 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_validate(args) -> int:
-    from .runner import prepare_simulation
-    from .scene import load_scene
-
     scene = load_scene(args.scene, args.set)
     model, sim, _, steps_per_frame = prepare_simulation(scene)
     print(f"{scene.path}: ok ({model.node_count} nodes, {model.spring_count} springs, "
@@ -80,8 +54,6 @@ def _cmd_validate(args) -> int:
 
 
 def _cmd_usd_check(args) -> int:
-    from .usd_check import check_usd, validate_usd
-
     bad = 0
     for path in args.paths:
         if not os.path.isfile(path):
@@ -96,15 +68,11 @@ def _cmd_usd_check(args) -> int:
 
 
 def _cmd_usd_flatten(args) -> int:
-    from .usd_export import flatten_usd
-
     print(f"wrote {flatten_usd(args.source, args.target)}")
     return EXIT_OK
 
 
 def _cmd_experiment_collision(args) -> int:
-    from .experiment_collision import mean_abs_error_pct, run_experiment, write_report
-
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise InputError(f"--out {args.out}: exists and is not a directory")
     cases = run_experiment(args.angles, args.speeds, t0=args.t0, rate=args.rate)
@@ -121,9 +89,6 @@ def _cmd_experiment_collision(args) -> int:
 
 
 def _cmd_batch(args) -> int:
-    from .batch import run_batch
-    from .sweep import load_sweep
-
     if args.workers is not None and args.scheduler:
         raise InputError("--workers sizes the local pool; with --scheduler the cluster's "
                          "workers run the scenarios: give one of the two")
@@ -132,7 +97,7 @@ def _cmd_batch(args) -> int:
     try:
         summary = run_batch(sweep, out, workers=args.workers, scheduler=args.scheduler,
                             retry_failed=args.retry_failed, progress=not args.quiet,
-                            run_args=["--no-usd"] if args.no_usd else [])
+                            usd=not args.no_usd)
     except KeyboardInterrupt:
         print(f"warp-cut: interrupted; finished scenarios are kept in {out}; run the same "
               "command again to run the rest", file=sys.stderr)
@@ -146,8 +111,6 @@ def _cmd_batch(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from .report import plot_results
-
     for path in plot_results(args.dir):
         print(f"  wrote {path}")
     return EXIT_OK
@@ -230,7 +193,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
-    _quiet_warp()
+    quiet_warp()
     try:
         return args.func(args)
     except InputError as exc:

@@ -9,13 +9,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
-from .io import write_csv, write_json, write_ply
+from .cut.width_curve import width_curve_metrics
+from .errors import InputError, WarpCutError
+from .io.files import write_csv, write_json, write_ply
+from .io.plots import FinalFrame, write_run_plots
+from .io.usd_export import DEFAULT_CHUNK_FRAMES, UsdRecorder
+from .mesh.checks import check_mesh
 from .scene import Scene
 from .simulator import Simulator
-from .solver import INTEGRATORS
+from .solvers import INTEGRATORS
 
-__all__ = ["RunResult", "prepare_simulation", "run_scene", "write_outputs", "TIMESERIES_COLUMNS"]
+__all__ = ["RunResult", "prepare_simulation", "run_scene", "run_to_directory", "record_frame",
+           "run_metrics", "write_outputs", "TIMESERIES_COLUMNS"]
 
 TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy"]
 """Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J]."""
@@ -58,48 +65,78 @@ def prepare_simulation(scene: Scene):
 def _progress(total: int, quiet: bool):
     if quiet or not sys.stderr.isatty():
         return None
-    from tqdm import tqdm
 
     return tqdm(total=total, unit="frame", desc="simulating", leave=False)
 
 
 def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
-    """Run a scene to its end. ``observers`` get ``on_frame(sim, frame)`` after every output
-    frame (frame 0 is the initial state) and ``finish(metrics)`` at the end."""
+    """Run a scene to its end.
+
+    Args:
+        scene: the validated scene.
+        quiet: no progress bar (there is none off a terminal either).
+        observers: objects with ``on_frame(sim, frame)``, called after every output frame
+            (frame 0 is the initial state), and ``finish(metrics)``, called at the end.
+
+    Returns:
+        The metrics, the time series and the final mesh.
+    """
     model, sim, path, steps_per_frame = prepare_simulation(scene)
     frames = scene.frame_count
     columns = TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
-    cols = {c: np.zeros(frames + 1) for c in columns}
+    series = {c: np.zeros(frames + 1) for c in columns}
     bar = _progress(frames, quiet)
-    for obs in observers:
-        obs.on_frame(sim, 0)
     start = time.perf_counter()
     try:
         for frame in range(frames + 1):
             if frame:
                 sim.step(steps_per_frame, tool=path)
-                for obs in observers:
-                    obs.on_frame(sim, frame)
-                if bar is not None:
-                    bar.update(1)
-            cols["t"][frame] = sim.time
-            cols["tool_fx"][frame], cols["tool_fy"][frame], cols["tool_fz"][frame] = sim.tool_force
-            cols["contacts"][frame] = sim.contact_count
-            cols["kinetic_energy"][frame] = sim.kinetic_energy()
-            if sim.cutter is not None:
-                cols["incision_width_m"][frame] = sim.cutter.incision_width()
+            for obs in observers:
+                obs.on_frame(sim, frame)
+            record_frame(series, frame, sim)
+            if bar is not None and frame:
+                bar.update(1)
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
+    metrics = run_metrics(scene, sim, series, steps=frames * steps_per_frame, wall_time=wall)
+    for obs in observers:
+        obs.finish(metrics)
+    return RunResult(metrics, series, final_mesh(sim))
+
+
+def record_frame(series: dict, frame: int, sim: Simulator) -> None:
+    """Fill row ``frame`` of the time series (``TIMESERIES_COLUMNS`` and, when cutting,
+    ``incision_width_m``) from the simulator's state after that frame."""
+    series["t"][frame] = sim.time
+    series["tool_fx"][frame], series["tool_fy"][frame], series["tool_fz"][frame] = sim.tool_force
+    series["contacts"][frame] = sim.contact_count
+    series["kinetic_energy"][frame] = sim.kinetic_energy()
+    if sim.cutter is not None:
+        series["incision_width_m"][frame] = sim.cutter.incision_width(sim.positions)
+
+
+def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
+                wall_time: float) -> dict:
+    """The content of metrics.json for a run of ``scene`` that has reached ``sim.time``.
+
+    Args:
+        scene: the scene that was run.
+        sim: the simulator at the end of the run.
+        series: the time series so far (``record_frame``), name -> (frames + 1,).
+        steps: steps taken.
+        wall_time: wall-clock time of the stepping [s].
+    """
+    model = sim.model
     metrics = {
         "name": scene.name,
         "scene_file": str(scene.path) if scene.path else None,
         "nodes": model.node_count,
         "springs": model.spring_count,
         "triangles": model.triangle_count,
-        "frames": frames,
-        "steps": frames * steps_per_frame,
+        "frames": len(series["t"]) - 1,
+        "steps": steps,
         "dt": sim.dt,
         "substeps": sim.substeps,
         "substep_s": sim.substep,
@@ -107,29 +144,24 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
         "stable_step_undamped_s": sim.step_limit.undamped_step,
         "integrator": sim.integrator,
         "sim_time_s": sim.time,
-        "wall_time_s": wall,
-        "realtime_factor": sim.time / wall if wall > 0 else None,
+        "wall_time_s": wall_time,
+        "realtime_factor": sim.time / wall_time if wall_time > 0 else None,
         "first_contact_time_s": sim.first_contact_time,
         "first_contact_point": sim.first_contact_point,
         "first_contact_time_exact_s": sim.first_contact_time_exact,
         "first_contact_point_exact": sim.first_contact_point_exact,
         "max_tool_force_n": sim.max_tool_force,
         "finite": True,
+        "mesh": mesh_quality(sim),
     }
-    metrics["mesh"] = mesh_quality(sim)
     if sim.cutter is not None:
-        metrics.update(sim.cutter.metrics())
-        from .width_curve import width_curve_metrics
-
-        metrics["width_curve"] = width_curve_metrics(cols["t"], cols["incision_width_m"])
-    for obs in observers:
-        obs.finish(metrics)
-    return RunResult(metrics, cols, final_mesh(sim))
+        metrics.update(sim.cutter.metrics(sim.positions))
+        metrics["width_curve"] = width_curve_metrics(series["t"], series["incision_width_m"])
+    return metrics
 
 
 def mesh_quality(sim) -> dict:
     """``mesh`` entry of metrics.json: validity, smallest angle, slivers made by the cut."""
-    from .mesh_checks import check_mesh
 
     model = sim.model
     made = sim.cutter.live_new_triangles() if sim.cutter is not None else np.zeros(0, np.int64)
@@ -163,3 +195,42 @@ def write_outputs(result: RunResult, out_dir) -> list[Path]:
         written.append(out / "final_mesh.ply")
     write_json(out / "metrics.json", result.metrics)
     return written + [out / "metrics.json"]
+
+
+def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
+                     usd_chunk: int = DEFAULT_CHUNK_FRAMES, quiet: bool = True
+                     ) -> tuple[RunResult, list[Path]]:
+    """Run ``scene`` and write everything a run writes into ``out_dir``: metrics.json,
+    timeseries.csv, final_mesh.ply, the pictures and (``usd``) the USD playback file.
+
+    What ``warp-cut run`` does, and what each batch worker does. On bad input or an unstable
+    simulation nothing is left behind (the USD chunks included) and the error is raised.
+
+    Args:
+        scene: the validated scene.
+        out_dir: output directory (created if missing).
+        usd: write USD; ``usd_path`` chooses the file (default ``OUT/<name>.usdc``) and
+            ``usd_chunk`` the frames per chunk file.
+        quiet: no progress bar.
+
+    Returns:
+        The run's result and the paths written.
+    """
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: exists and is not a directory")
+    final = FinalFrame()
+    recorder = None
+    if usd:
+        recorder = UsdRecorder(usd_path or out / f"{scene.name}.usdc", scene, chunk_frames=usd_chunk)
+    try:
+        result = run_scene(scene, quiet=quiet, observers=[final] + ([recorder] if recorder else []))
+    except WarpCutError:
+        if recorder is not None:  # bad input or unstable: leave nothing behind
+            recorder.abort()
+        raise
+    written = write_outputs(result, out)
+    written += write_run_plots(out, result.columns, final.picture, scene.name)
+    if recorder is not None:
+        written.append(Path(recorder.path))
+    return result, written

@@ -15,11 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from .control import ToolPath
+from .cut.cutter import CutSettings
 from .errors import InputError, SceneError
-from .material import Material
-from .model import TissueModel
-from .solver import INTEGRATORS
+from .sim.control import ToolPath
+from .sim.material import Material
+from .sim.model import TissueModel, boundary_nodes
+from .sim.stiffness import STIFFNESS_MODELS, material_stiffness
+from .solvers import INTEGRATORS
 
 __all__ = ["Scene", "load_scene", "parse_scene", "apply_overrides", "bundled_scene_path",
            "DEFAULT_SCENE"]
@@ -157,8 +159,6 @@ class Scene:
             model.masses[:] = t["uniform_mass"]
         pinned = t["pinned"]
         if pinned == "border":
-            from .model import boundary_nodes
-
             model.pinned |= boundary_nodes(model.node_count, model.triangles)
         elif isinstance(pinned, dict) and "box" in pinned:
             model.pin_box(*pinned["box"])
@@ -169,8 +169,6 @@ class Scene:
                                  f"must be node indices in [0, {model.node_count - 1}]")
             model.pinned[idx] = True
         if self.stiffness_model == "material":
-            from .stiffness import material_stiffness
-
             model.stiffness = material_stiffness(
                 model.points, model.triangles, model.springs, self.material.youngs_modulus,
                 self.material.thickness, fallback=self.material.stiffness)
@@ -197,7 +195,6 @@ class Scene:
         """The CutSettings of ``[cutting]`` if ``physics.cutting`` is on, else None."""
         if not self.physics["cutting"]:
             return None
-        from .cutting import CutSettings
 
         return CutSettings(**self.cutting)
 
@@ -242,7 +239,6 @@ def parse_scene(data: dict, path=None) -> Scene:
         density=r.number(tis_t, "tissue", "density", defaults.density, low=0, high=1e5,
                          low_open=True),
     )
-    from .stiffness import STIFFNESS_MODELS
 
     stiffness_model = r.choice(mat_t, "material", "stiffness_model", "constant",
                                set(STIFFNESS_MODELS))

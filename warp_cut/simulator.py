@@ -8,14 +8,18 @@ from typing import Callable, Union
 import numpy as np
 import warp as wp
 
-from .collision import cylinder_contacts
-from .control import Tool, ToolPath
-from .device_model import DeviceModel
+from .cut.cutter import CutSettings, Cutter
 from .errors import InputError, SimulationUnstable, ToolStartsInside
-from .model import TissueModel
-from .solver import INTEGRATORS
-from .state import State
-from .stability import StepLimit
+from .kernels.diagnostics import find_runaway_nodes, kinetic_energy
+from .kernels.scatter import scatter_vec3
+from .sim.ccd import ContinuousDetector
+from .sim.collision import cylinder_contacts
+from .sim.control import Tool, ToolPath
+from .sim.device_model import DeviceModel
+from .sim.model import TissueModel
+from .sim.stability import StepLimit
+from .sim.state import State
+from .solvers import INTEGRATORS
 
 __all__ = ["Simulator", "DEFAULT_GRAVITY"]
 
@@ -43,7 +47,7 @@ class Simulator:
             (default 1000 x the model's bounding-box diagonal, at least 1 m).
         device: Warp device, ``"cpu"`` or ``"cuda:0"``.
         cutting: None/False for no cutting, True or a ``CutSettings`` to cut the tissue where
-            the tool goes (see ``warp_cut.cutting``); the Cutter is then ``self.cutter``.
+            the tool goes (see ``warp_cut.cut.cutter``); the Cutter is then ``self.cutter``.
     """
 
     def __init__(self, model: TissueModel, dt: float | str = 1.0e-3, *,
@@ -94,11 +98,14 @@ class Simulator:
         self.contact_centroid: np.ndarray | None = None
         """Mean position [m] of the nodes in contact during the last step, or None."""
         self._rebuild()
-        self.cutter = None
+        self.post_step_hooks: list[Callable[[Simulator], None]] = []
+        """Called with the simulator after every step, in order (e.g. ``Cutter.after_step``)."""
+        self.cutter: Cutter | None = None
+        """The Cutter when the simulator was made with ``cutting``, else None."""
         if cutting:
-            from .cutting import CutSettings, Cutter
-
-            self.cutter = Cutter(self, cutting if isinstance(cutting, CutSettings) else None)
+            settings = cutting if isinstance(cutting, CutSettings) else None
+            self.cutter = Cutter(model, settings, device)
+            self.post_step_hooks.append(self.cutter.after_step)
 
     # --------------------------------------------------------------- set-up
     def _rebuild(self) -> None:
@@ -192,7 +199,6 @@ class Simulator:
 
     def kinetic_energy(self) -> float:
         """Sum of 0.5 m |v|^2 over the nodes [J]."""
-        from .kernels.diagnostics import kinetic_energy
 
         out = wp.zeros(1, dtype=wp.float32, device=self.device)
         m = self.device_model
@@ -228,8 +234,8 @@ class Simulator:
         non-finite value can be read back."""
         if n < 0:
             raise InputError(f"n must be >= 0, got {n}")
-        h = self.substep
         for _ in range(int(n)):
+            h = self.substep
             pose = self._resolve_tool(tool, self.time + self.dt)
             if pose is not None and not self._tool_checked and self.collision:
                 self.check_tool_outside(self._resolve_tool(tool, self.time))
@@ -248,9 +254,8 @@ class Simulator:
                 self.tool_force = np.zeros(3)
                 self.contact_count = 0.0
                 self.contact_centroid = None
-            if self.cutter is not None:
-                self.cutter.after_step(pose if self.collision else None)
-                h = self.substep
+            for hook in self.post_step_hooks:
+                hook(self)
         self.check_finite()
 
     def _continuous_first_contact(self, start: Tool, end: Tool) -> None:
@@ -259,7 +264,6 @@ class Simulator:
         a first contact is known (one extra per-node launch per step before contact)."""
         if self.first_contact_time_exact is not None or self.first_contact_time is not None:
             return
-        from .ccd import ContinuousDetector
 
         if self._ccd is None:
             self._ccd = ContinuousDetector(self.device)
@@ -282,10 +286,20 @@ class Simulator:
             self.first_contact_time = self.time
             self.first_contact_point = self.contact_centroid
 
-    def apply_topology_edit(self, new_nodes: np.ndarray, new_positions: np.ndarray) -> None:
-        """Mirror the model's latest edit on the device: changed slots are copied (arrays are
-        reallocated only when a table outgrew its capacity) and new nodes start at
-        ``new_positions`` (k, 3) [m] at rest."""
+    def apply_topology_edit(self, new_nodes: np.ndarray, new_positions: np.ndarray,
+                            explicit_limit: StepLimit | None = None) -> None:
+        """Mirror the model's latest edit on the device and update the stable step.
+
+        Changed slots are copied (arrays are reallocated only when a table outgrew its
+        capacity) and new nodes start at rest.
+
+        Args:
+            new_nodes: Slots of the nodes the edit created, shape (k,).
+            new_positions: Their positions [m], shape (k, 3).
+            explicit_limit: The semi-implicit step's limit after the edit, when the caller
+                keeps it up to date (the Cutter does, node by node); other integrators, or
+                None, compute theirs from the model.
+        """
         reallocated = self.device_model.sync()
         capacity = self.model.node_table.capacity
         if self._state.node_count < capacity:
@@ -298,8 +312,6 @@ class Simulator:
                 setattr(self, attr, State(x, v, device=self.device))
             reallocated = True
         if len(new_nodes):
-            from .kernels.scatter import scatter_vec3
-
             idx = wp.array(np.asarray(new_nodes, np.int32), dtype=wp.int32, device=self.device)
             x = wp.array(np.asarray(new_positions, np.float32), dtype=wp.vec3, device=self.device)
             zero = wp.zeros(len(new_nodes), dtype=wp.vec3, device=self.device)
@@ -310,6 +322,7 @@ class Simulator:
             self.solver = self._make_solver()
         else:
             self.solver.topology_changed()
+        self.update_step_limit(explicit_limit if self.integrator == "semi_implicit" else None)
 
     def update_step_limit(self, limit: StepLimit | None = None) -> None:
         """Set the stable step (recomputed from the model if not given) and the substeps."""
@@ -318,7 +331,6 @@ class Simulator:
 
     def check_finite(self) -> None:
         """Raise SimulationUnstable if any active node is non-finite or has run away."""
-        from .kernels.diagnostics import find_runaway_nodes
 
         m = self.device_model
         first_bad = wp.array([m.node_count], dtype=wp.int32, device=self.device)

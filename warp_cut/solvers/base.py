@@ -20,9 +20,10 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..control import Tool
-from ..device_model import DeviceModel
-from ..stability import StepLimit, stable_time_step
+from ..kernels.collision import clear_tool_stats
+from ..sim.control import Tool
+from ..sim.device_model import DeviceModel
+from ..sim.stability import StepLimit, stable_time_step
 from .launches import LaunchSequence
 
 __all__ = ["SolverBase", "CPU_CHUNK"]
@@ -75,8 +76,6 @@ class SolverBase:
 
     def clear_tool_stats(self) -> None:
         if self._clear_stats is None:
-            from ..kernels.collision import clear_tool_stats
-
             self._clear_stats = wp.launch(
                 clear_tool_stats, dim=1, device=self.device, record_cmd=True,
                 inputs=[self.tool_force, self.contact_count, self.contact_position_sum])

@@ -10,7 +10,12 @@ import math
 
 import warp as wp
 
-from ..stability import StepLimit, stable_time_step
+from ..kernels import implicit as K
+from ..kernels.collision import cylinder_push_out
+from ..kernels.gravity import gravity_forces
+from ..kernels.residual import residual_link_forces
+from ..kernels.springs import spring_forces
+from ..sim.stability import StepLimit, stable_time_step
 from .base import SolverBase
 from .launches import LaunchSequence
 
@@ -58,9 +63,6 @@ class ImplicitEulerSolver(SolverBase):
         return 0.0 if rz[0] <= 0 or len(last) == 0 else float(math.sqrt(last[-1] / rz[0]))
 
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
-        from ..kernels import implicit as K
-        from ..kernels.springs import spring_forces
-
         m = self.model
         n = m.node_count
         chunk, nt = self.chunk, self.threads(n)
@@ -74,13 +76,9 @@ class ImplicitEulerSolver(SolverBase):
         seq.add(spring_forces, self.threads(count),
                 [x_in, indices, rest, stiffness, chunk, count, forces])
         if links:
-            from ..kernels.residual import residual_link_forces
-
             seq.add(residual_link_forces, m.link_count,
                     [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
         if self.gravity is not None:
-            from ..kernels.gravity import gravity_forces
-
             seq.add(gravity_forces, n, [m.node_mass, m.node_flags, self.gravity, forces])
 
         def stiffness_product(p, k_iter):
@@ -107,8 +105,6 @@ class ImplicitEulerSolver(SolverBase):
         seq.add(K.implicit_advance, nt, [x_in, v["x"], m.node_flags, h, chunk, n,
                                          state_out.positions, state_out.velocities])
         if self.collision:
-            from ..kernels.collision import cylinder_push_out
-
             seq.add(cylinder_push_out, n,
                     [state_out.positions, state_out.velocities, m.node_mass, m.node_damping,
                      m.node_flags, self.tool_pose, h, v["diagonal"], self.tool_force,

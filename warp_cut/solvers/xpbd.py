@@ -7,7 +7,10 @@ import math
 import numpy as np
 import warp as wp
 
-from ..stability import StepLimit, stable_time_step
+from ..kernels import xpbd as K
+from ..kernels.residual import residual_link_forces
+from ..kernels.xpbd import spring_valence
+from ..sim.stability import StepLimit, stable_time_step
 from .base import SolverBase
 from .launches import LaunchSequence
 
@@ -33,7 +36,6 @@ class XPBDSolver(SolverBase):
 
     def _derive(self) -> None:
         super()._derive()
-        from ..kernels.xpbd import spring_valence
 
         device = self.device
         self._delta = wp.zeros(self.model.node_count, dtype=wp.vec3, device=device)
@@ -46,15 +48,11 @@ class XPBDSolver(SolverBase):
                               self._stiffness_sum])
 
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
-        from ..kernels import xpbd as K
-
         m = self.model
         n = m.node_count
         chunk, nt = self.chunk, self.threads(n)
         x_in, forces = state_in.positions, state_in.forces
         if self.residual_stress and m.link_count:
-            from ..kernels.residual import residual_link_forces
-
             seq.add(residual_link_forces, m.link_count,
                     [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
         gravity = self.gravity if self.gravity is not None else wp.vec3(0.0)

@@ -14,9 +14,11 @@ import math
 import re
 from pathlib import Path
 
-from .batch_store import MANIFEST_FILE, RESULTS_FILE
-from .errors import InputError
-from .io import atomic_path
+from matplotlib.figure import Figure
+
+from ..errors import InputError
+from ..io.files import atomic_path
+from .store import MANIFEST_FILE, RESULTS_FILE
 
 __all__ = ["plot_results", "read_results", "KEY_METRICS"]
 
@@ -77,8 +79,6 @@ def _x_positions(values: list[str]):
 
 
 def _plot_parameter(param: str, parameters: list[str], rows: list[dict], metrics: list[str]):
-    from matplotlib.figure import Figure
-
     others = [p for p in parameters if p != param and len({r[p] for r in rows}) > 1]
     xs, labels = _x_positions([r[param] for r in rows])
     ok = [i for i, r in enumerate(rows) if r["status"] == "ok"]

@@ -20,8 +20,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .batch_store import STATUSES, BatchStore
-from .errors import InputError, SimulationUnstable
+from tqdm import tqdm
+
+from ..errors import InputError, SimulationUnstable
+from ..runner import run_to_directory
+from ..scene import load_scene
+from ..sim.warp_config import quiet_warp
+from .store import STATUSES, BatchStore
 from .sweep import Sweep
 
 __all__ = ["run_batch", "run_scenario", "BatchSummary", "STATUSES"]
@@ -44,27 +49,25 @@ def _scene_file(task: dict, tmp: Path) -> Path:
 
 
 def run_scenario(task: dict) -> dict:
-    """Run one scenario (on a worker): ``warp-cut run SCENE --set ... --out TMP`` itself.
+    """Run one scenario (on a worker) exactly as ``warp-cut run SCENE --set ... --out TMP``.
 
-    task: ``{"scene_text": base scene TOML, "scene_path": its file (str), "overrides":
-    [section.key=value, ...], "run_args": [extra warp-cut run options]}``.
-    Returns ``{"status", "message", "files": {relative path: bytes}, "worker_time_s", "host"}``;
-    errors of the scenario become a status, never an exception, so one cannot stop the others.
+    Args:
+        task: ``{"scene_text": base scene TOML, "scene_path": its file (str), "overrides":
+            [section.key=value, ...], "usd": write USD (bool, default True)}``.
+
+    Returns:
+        ``{"status", "message", "files": {relative path: bytes}, "worker_time_s", "host"}``;
+        errors of the scenario become a status, never an exception, so one cannot stop the
+        others.
     """
-    from .cli import _quiet_warp, build_parser
-
     start = time.perf_counter()
     outcome = {"status": "ok", "message": "", "files": {}, "host": socket.gethostname()}
     try:
-        _quiet_warp()
+        quiet_warp()
         with tempfile.TemporaryDirectory(prefix="warp-cut-run-") as tmp:
             out = Path(tmp) / "run"
-            argv = ["run", str(_scene_file(task, Path(tmp))), "--out", str(out), "--quiet",
-                    *task.get("run_args", [])]
-            for item in task["overrides"]:
-                argv += ["--set", item]
-            args = build_parser().parse_args(argv)
-            args.func(args)
+            scene = load_scene(_scene_file(task, Path(tmp)), task["overrides"])
+            run_to_directory(scene, out, usd=task.get("usd", True))
             outcome["files"] = {p.relative_to(out).as_posix(): p.read_bytes()
                                 for p in sorted(out.rglob("*")) if p.is_file()}
             outcome["out_dir"] = str(out)
@@ -135,8 +138,6 @@ class _Progress:
         self.enabled = enabled
         self.bar = None
         if enabled and sys.stderr.isatty():
-            from tqdm import tqdm
-
             self.bar = tqdm(total=total, initial=done, unit="scenario", desc="batch")
             self.bar.set_postfix_str(self._text())
 
@@ -159,12 +160,12 @@ class _Progress:
 
 
 def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: str | None = None,
-              retry_failed: bool = False, run_args=(), progress: bool = False) -> BatchSummary:
+              retry_failed: bool = False, usd: bool = True, progress: bool = False) -> BatchSummary:
     """Run every scenario of ``sweep`` not already finished in ``out_dir``.
 
     workers: local process pool size (default: the number of cores); scheduler: a Dask
     scheduler address instead of the pool. retry_failed: run failed and unstable scenarios
-    again. run_args: extra ``warp-cut run`` options for every scenario (e.g. ``["--no-usd"]``).
+    again. usd: the runs write USD (``warp-cut batch --no-usd`` turns it off).
     Results land in ``out_dir`` as each scenario finishes; on KeyboardInterrupt the
     finished ones are kept and the rest are cancelled.
     """
@@ -181,10 +182,12 @@ def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: s
                 summary.counts[record["status"]] += 1
             bar = _Progress(summary.total, summary.skipped,
                             summary.skipped - summary.counts["ok"], progress)
+            futures = {}  # filled one by one: if a submit fails, those already sent are cancelled
             try:
-                futures = {executor.submit(run_scenario, {
-                    "scene_text": sweep.base_text, "scene_path": str(sweep.base_path),
-                    "overrides": sweep.overrides(s), "run_args": list(run_args)}): s for s in todo}
+                for s in todo:
+                    futures[executor.submit(run_scenario, {
+                        "scene_text": sweep.base_text, "scene_path": str(sweep.base_path),
+                        "overrides": sweep.overrides(s), "usd": usd})] = s
                 for future in cf.as_completed(futures):
                     scenario = futures.pop(future)
                     try:

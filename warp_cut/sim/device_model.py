@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from .kernels import NODE_ACTIVE, NODE_PINNED
+from ..kernels import NODE_ACTIVE, NODE_PINNED
+from ..kernels.scatter import scatter_float32, scatter_int32, scatter_vec3
 
 __all__ = ["DeviceModel"]
 
@@ -76,7 +77,6 @@ class DeviceModel:
     def sync(self) -> bool:
         """Copy the model's changed slots to the device. Returns True if arrays were
         reallocated (a table outgrew its capacity): solvers holding them must rebind."""
-        from .kernels.scatter import scatter_float32, scatter_int32, scatter_vec3
 
         model = self.model
         tables = {id(t): t for _, t, _, _ in _columns(model)}

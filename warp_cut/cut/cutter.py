@@ -10,7 +10,7 @@ Once the tool is in contact (and, optionally, pushes harder than a threshold), e
   touched form the grey area (Warp kernels find the hits; the edit is host-side);
 * Stage 2 - the contact path is refitted with a C1 chain of cubic Bezier segments whose end is
   the tool's contact point;
-* Stage 3 - the grey area is re-meshed by shortest-distance node matching (``warp_cut.remesh``).
+* Stage 3 - the grey area is re-meshed by shortest-distance node matching (``warp_cut.cut.remesh``).
 
 The incision ends when the tool leaves the surface; the next contact starts a new one.
 """
@@ -19,19 +19,26 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import warp as wp
 
+from ..errors import InputError
+from ..kernels import cutting as cut_kernels
+from ..kernels import scatter
+from ..kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
+from ..sim.control import Tool
+from ..sim.device_model import DeviceModel
+from ..sim.model import TissueModel
+from ..sim.stability import RowSums, StepLimit
+from ..sim.state import State
 from .classes import NodeClass
-from .control import Tool
-from .errors import InputError
 from .incision import Incision, polyline_distance
 from .remesh import fill_hole
-from .stability import RowSums
 from .topology import NodePositions, TopologyEditor
 
-__all__ = ["CutSettings", "Cutter", "STAGES"]
+__all__ = ["CutSettings", "Cutter", "CutHost", "STAGES"]
 
 STAGES = ("stage1_swept_volume", "stage2_bezier", "stage3_matching", "device_update")
 """Names of the timed parts of a cut event (latency in metrics.json)."""
@@ -85,13 +92,52 @@ class _Hits:
             self.buffer = wp.zeros(2 * n, dtype=wp.int32, device=self.device)
 
 
-class Cutter:
-    """Cuts ``sim.model`` while ``sim`` runs; called by the Simulator after every step."""
+class CutHost(Protocol):
+    """What the Cutter needs from the simulation it cuts; ``warp_cut.Simulator`` provides it.
 
-    def __init__(self, sim, settings: CutSettings | None = None):
-        self.sim = sim
+    Attributes:
+        time: Simulated time at the end of the last step [s].
+        tool_pose: The tool at the end of the last step, or None.
+        collision: Whether the tool touches the tissue at all.
+        tool_force: Reaction of the tissue on the tool over the last step [N], shape (3,).
+        contact_count: Mean number of nodes in contact per substep over the last step.
+        contact_centroid: Mean position of the nodes in contact [m], shape (3,), or None.
+        state: The device state; the cut reads ``state.positions``.
+        device_model: The device mirror of the model; the cut reads node flags and springs.
+    """
+
+    time: float
+    tool_pose: Tool | None
+    collision: bool
+    tool_force: np.ndarray
+    contact_count: float
+    contact_centroid: np.ndarray | None
+    state: State
+    device_model: DeviceModel
+
+    def apply_topology_edit(self, new_nodes: np.ndarray, new_positions: np.ndarray,
+                            explicit_limit: StepLimit) -> None:
+        """Mirror the model's latest edit on the device and update the stable step."""
+
+
+class Cutter:
+    """Cuts a TissueModel while a simulation of it runs.
+
+    The simulation calls ``after_step(host)`` after every step (``Simulator(cutting=...)``
+    registers it as a post-step hook); ``start_incision``, ``extend_incision`` and
+    ``end_incision`` drive a cut directly. Every call gets the ``CutHost`` it acts on; the
+    Cutter keeps the model's topology editor and the incisions, nothing of the host.
+
+    Args:
+        model: The tissue to cut (edited in place through a ``TopologyEditor``).
+        settings: Cutting parameters (default ``CutSettings()``).
+        device: Warp device of the Stage 1 kernels.
+    """
+
+    def __init__(self, model: TissueModel, settings: CutSettings | None = None, device: str = "cpu"):
+        self.model = model
+        self.device = device
         self.settings = settings or CutSettings()
-        model = sim.model
         if model.triangle_count == 0:
             raise InputError("cutting needs a tissue with triangles (a surface mesh)")
         self.editor = TopologyEditor(model)
@@ -101,7 +147,7 @@ class Cutter:
         self.incisions: list[Incision] = []
         self.current: Incision | None = None
         self._last_event = -np.inf
-        self._hits = _Hits(sim.device)
+        self._hits = _Hits(device)
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
                        "lip_nodes": 0, "new_springs": 0, "removed_fragments": 0, "events": 0}
@@ -109,17 +155,16 @@ class Cutter:
         self.contact_path: list[np.ndarray] = []
         self.unfilled_holes = 0
         # compile the cut's kernels now, so that no cut event pays for it
-        from .kernels import cutting as cut_kernels, scatter
 
         for module in (cut_kernels, scatter):
-            wp.load_module(module, device=sim.device)
+            wp.load_module(module, device=device)
 
     # ----------------------------------------------------------------- driving
-    def after_step(self, tool: Tool | None) -> None:
-        """Advance the cut after a simulation step with the tool pose ``tool`` (None: no tool)."""
-        sim = self.sim
+    def after_step(self, sim: CutHost) -> None:
+        """Advance the cut after a simulation step of ``sim``."""
+        tool = sim.tool_pose if sim.collision else None
         if tool is None or tool.radius <= 0:
-            self.end_incision()
+            self.end_incision(sim)
             return
         if sim.time - self._last_event < self.settings.interval - 1e-12:
             return
@@ -127,18 +172,18 @@ class Cutter:
         if self.current is None:
             pushing = np.linalg.norm(sim.tool_force) >= self.settings.force_threshold
             if sim.contact_count > 0 and pushing and sim.contact_centroid is not None:
-                normal = self._surface_normal(sim.contact_centroid)
+                normal = self._surface_normal(sim, sim.contact_centroid)
                 point = self._axis_crossing(tool, sim.contact_centroid, normal)
                 if point is not None:
-                    self.start_incision(point, normal, self.settings.sweep_radius or tool.radius)
+                    self.start_incision(sim, point, normal, self.settings.sweep_radius or tool.radius)
             return
         point = self._axis_crossing(tool, self.current.path[0], self.current.normal)
         if point is None:
-            self.end_incision()  # the tool left the surface: this incision is complete
+            self.end_incision(sim)  # the tool left the surface: this incision is complete
             return
-        self.extend_incision(point)
+        self.extend_incision(sim, point)
 
-    def start_incision(self, point, normal, sweep_radius: float) -> Incision:
+    def start_incision(self, sim: CutHost, point, normal, sweep_radius: float) -> Incision:
         """Begin a new incision at ``point`` [m] on the surface with unit ``normal``; the swept
         circle has radius ``sweep_radius`` [m]. (``after_step`` calls this at first contact;
         a haptic loop or a test may call it directly.)"""
@@ -152,15 +197,15 @@ class Cutter:
         self.incisions.append(self.current)
         return self.current
 
-    def end_incision(self) -> None:
+    def end_incision(self, sim: CutHost) -> None:
         """Finish the current incision (the next cut starts a new one); a hole still open
         waiting for better geometry is filled now, slivers or not."""
         inc = self.current
         self.current = None
         if inc is not None and inc.open_chains:
             self.editor.begin()
-            report, result, positions = self._stage3(inc, None, defer_slivers=False)
-            self._apply(report, positions)
+            report, result, positions = self._stage3(sim, inc, None, defer_slivers=False)
+            self._apply(sim, report, positions)
             self._count(report, result)
 
     @staticmethod
@@ -172,10 +217,10 @@ class Cutter:
             return None
         return tool.p0 + (s0 / (s0 - s1)) * (tool.p1 - tool.p0)
 
-    def _surface_normal(self, point) -> np.ndarray:
+    def _surface_normal(self, sim: CutHost, point) -> np.ndarray:
         """Mean unit normal of the triangles around the live node nearest ``point``."""
-        model = self.sim.model
-        x = self._positions_view()
+        model = self.model
+        x = self._positions_view(sim)
         live = np.flatnonzero(model.active)
         node = int(live[np.argmin(np.linalg.norm(x[live] - point, axis=1))])
         corners = model.triangle_table.column("corners")
@@ -187,15 +232,15 @@ class Cutter:
         return normal / n if n > 0 else np.array([0.0, 0.0, 1.0])
 
     def _index_array(self, idx) -> wp.array:
-        return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.sim.device)
+        return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.device)
 
-    def _neighbourhood(self, a, b, radius) -> tuple[list[int], list[int]]:
+    def _neighbourhood(self, sim: CutHost, a, b, radius) -> tuple[list[int], list[int]]:
         """Candidate nodes and springs for the swept capsule a-b: the nodes within
         radius + |b - a| + 3 spacings of a, found by walking the mesh outward from the
         incision's anchor node, and the springs at them. The walk costs what the cut touches,
         however large the tissue (the Stage 1 kernels then test only these)."""
-        inc, editor, model = self.current, self.editor, self.sim.model
-        x = self._positions_view()
+        inc, editor, model = self.current, self.editor, self.model
+        x = self._positions_view(sim)
         reach = radius + float(np.linalg.norm(np.asarray(b) - a)) + 3.0 * self.spacing
         anchor = inc.anchor
         if anchor < 0 or not model.active[anchor]:
@@ -217,17 +262,16 @@ class Cutter:
         springs = sorted({slot for v in nodes for slot in editor.node_springs[v]})
         return nodes, springs
 
-    def _positions_view(self) -> np.ndarray:
+    def _positions_view(self, sim: CutHost) -> np.ndarray:
         # zero-copy on the CPU; a copy from a GPU
-        return self.sim.state.positions.numpy()[: self.sim.model.node_count]
+        return sim.state.positions.numpy()[: self.model.node_count]
 
     # ----------------------------------------------------------------- one event
-    def extend_incision(self, point) -> None:
+    def extend_incision(self, sim: CutHost, point) -> None:
         """One cut event: sweep from the incision's last contact point to ``point`` [m]
         (Stages 1-3), then mirror the edit on the device."""
-        from .kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 
-        sim, inc, editor = self.sim, self.current, self.editor
+        inc, editor = self.current, self.editor
         if inc is None:
             raise InputError("no incision in progress: call start_incision first")
         point = np.asarray(point, dtype=np.float64)
@@ -237,7 +281,7 @@ class Cutter:
             return  # the tool has not moved enough to extend the incision
         dm = sim.device_model
         t0 = time.perf_counter()
-        near_nodes, near_springs = self._neighbourhood(a, point, r)
+        near_nodes, near_springs = self._neighbourhood(sim, a, point, r)
         nodes = self._hits.run(capsule_node_hits_among, len(near_nodes), [
             sim.state.positions, dm.node_flags, self._index_array(near_nodes),
             wp.vec3(*a), wp.vec3(*point), float(r)])
@@ -250,7 +294,7 @@ class Cutter:
             doomed.add(inc.end_node)  # the slit's end moves on with the tool
             inc.end_node = -1
         own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
-        residual = [sl for sl in springs if not (set(sim.model.spring_table.column("pairs")[sl]) & own_lips)]
+        residual = [sl for sl in springs if not (set(self.model.spring_table.column("pairs")[sl]) & own_lips)]
         no_residual = [sl for sl in springs if sl not in set(residual)]
         editor.delete_springs(residual, residual=True, doomed_nodes=doomed)
         editor.delete_springs(no_residual, residual=False)
@@ -261,20 +305,20 @@ class Cutter:
         self.contact_path.append(point)
         t2 = time.perf_counter()
         # a sliver may wait a few events for better geometry, not forever
-        report, result, positions = self._stage3(inc, point, defer_slivers=inc.deferrals < 3)
+        report, result, positions = self._stage3(sim, inc, point, defer_slivers=inc.deferrals < 3)
         t3 = time.perf_counter()
-        self._apply(report, positions)
+        self._apply(sim, report, positions)
         t4 = time.perf_counter()
         for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
             self.latency_ms[name].append(1e3 * dt)
         self.totals["events"] += 1
         self._count(report, result)
 
-    def _stage3(self, inc: Incision, point, *, defer_slivers: bool):
+    def _stage3(self, sim: CutHost, inc: Incision, point, *, defer_slivers: bool):
         """Re-mesh the grey area of the current edit and the holes left open before, then
         finish the edit. Returns (edit report, fill result, positions)."""
-        editor, sim = self.editor, self.sim
-        positions = NodePositions(self._positions_view())
+        editor = self.editor
+        positions = NodePositions(self._positions_view(sim))
         result = {"created": [], "yellow": [], "blue": [], "unfilled": []}
         if editor.report.deleted_triangle_corners or inc.open_chains:
             result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions,
@@ -283,7 +327,7 @@ class Cutter:
         inc.open_chains = result["unfilled"]  # retried at the next event
         report = editor.finish()
         candidates = [v for v in list(report.new_nodes) + sorted(editor.touched_nodes)
-                      if sim.model.active[v]]
+                      if self.model.active[v]]
         if candidates and point is not None:
             xs = positions[candidates]
             inc.anchor = int(candidates[int(np.argmin(np.linalg.norm(xs - point, axis=1)))])
@@ -301,25 +345,27 @@ class Cutter:
         self.new_triangles.update(report.new_triangles)
         self.new_triangles.difference_update(report.deleted_triangles)
 
-    def _apply(self, report, positions: NodePositions) -> None:
-        """Mirror the edit on the device, initialise new nodes, update the stable step."""
-        sim = self.sim
+    def _apply(self, sim: CutHost, report, positions: NodePositions) -> None:
+        """Update the explicit step's limit node by node (rows of the nodes whose springs or
+        links changed), then let the host mirror the edit and initialise the new nodes."""
         new = np.array(report.new_nodes, dtype=np.int64)
-        sim.apply_topology_edit(new, positions[new] if len(new) else np.zeros((0, 3)))
-        # rows of the nodes whose springs or links changed
         changed = set(self.editor.touched_nodes)
         for slot in report.residual_links:
-            changed.update(int(v) for v in sim.model.link_table.column("pairs")[slot])
+            changed.update(int(v) for v in self.model.link_table.column("pairs")[slot])
         changed |= {int(v) for v in report.deleted_nodes}
-        self.row_sums.update(sorted(changed), self.editor, NodePositions(self._positions_view()))
-        # the explicit step's limit is kept up to date node by node; other integrators compute theirs
-        sim.update_step_limit(self.row_sums.limit() if sim.integrator == "semi_implicit" else None)
+        self.row_sums.update(sorted(changed), self.editor, positions)
+        sim.apply_topology_edit(new, positions[new] if len(new) else np.zeros((0, 3)),
+                                self.row_sums.limit())
 
     # ----------------------------------------------------------------- measures
-    def incision_width(self) -> float:
-        """Median distance [m] between the paired lip nodes across the incisions (nan if none)."""
-        x = self._positions_view()
-        active = self.sim.model.active
+    def incision_width(self, positions: np.ndarray) -> float:
+        """Median distance [m] between the paired lip nodes across the incisions (nan if none).
+
+        Args:
+            positions: Current node positions [m], shape (node_count, 3).
+        """
+        x = positions
+        active = self.model.active
         widths = []
         for inc in self.incisions:
             pairs = inc.pairs()
@@ -328,18 +374,20 @@ class Cutter:
                 widths.extend(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1).tolist())
         return float(np.median(widths)) if widths else float("nan")
 
-    def lip_deviation(self, in_plane: bool = True) -> float:
+    def lip_deviation(self, positions: np.ndarray, in_plane: bool = True) -> float:
         """Largest distance [m] of a lip node from the tool's contact path (a polyline).
 
-        ``in_plane``: measured in the surface plane of each incision (the component along
-        its normal removed), i.e. the incision's shape as seen on the skin; otherwise in 3D.
+        Args:
+            positions: Current node positions [m], shape (node_count, 3).
+            in_plane: Measure in the surface plane of each incision (the component along its
+                normal removed), i.e. the incision's shape as seen on the skin; else in 3D.
         """
-        model = self.sim.model
+        model = self.model
         lips = np.flatnonzero(model.active & (model.node_class == NodeClass.LIP))
         polylines = [inc for inc in self.incisions if len(inc.path) > 1]
         if not len(lips) or not polylines:
             return float("nan")
-        x = self._positions_view()[lips].astype(np.float64)
+        x = np.asarray(positions)[lips].astype(np.float64)
         best = np.full(len(lips), np.inf)
         for inc in polylines:
             poly = np.array(inc.path)
@@ -351,23 +399,27 @@ class Cutter:
             best = np.minimum(best, polyline_distance(pts, poly))
         return float(best.max())
 
-    def metrics(self) -> dict:
-        """The cut's entries of metrics.json: ``cut``, ``incision`` and ``latency_ms``."""
+    def metrics(self, positions: np.ndarray) -> dict:
+        """The cut's entries of metrics.json: ``cut``, ``incision`` and ``latency_ms``.
+
+        Args:
+            positions: Current node positions [m], shape (node_count, 3).
+        """
         length = sum(inc.length for inc in self.incisions)
         cut = {k: v for k, v in self.totals.items()}
         cut["incisions"] = len(self.incisions)
         cut["unfilled_holes"] = self.unfilled_holes
         return {
             "cut": cut,
-            "incision": {"length_m": length, "max_deviation_m": self.lip_deviation(),
-                         "max_deviation_3d_m": self.lip_deviation(in_plane=False),
-                         "width_m": self.incision_width()},
+            "incision": {"length_m": length, "max_deviation_m": self.lip_deviation(positions),
+                         "max_deviation_3d_m": self.lip_deviation(positions, in_plane=False),
+                         "width_m": self.incision_width(positions)},
             "latency_ms": self.latency_summary(),
         }
 
     def live_new_triangles(self) -> np.ndarray:
         """Rows (into ``model.triangles``) of the live triangles this cutter made."""
-        table = self.sim.model.triangle_table
+        table = self.model.triangle_table
         live = table.live_slots()
         return np.flatnonzero(np.isin(live, np.fromiter(self.new_triangles, dtype=np.int64)))
 

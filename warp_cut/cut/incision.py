@@ -1,7 +1,7 @@
 """Incision: the tool's contact path, its Bezier curve (Stage 2) and the lips' stations.
 
 The path is the sequence of contact points [m]. The curve is a C1 chain of cubic Bezier
-segments fitted to it within ``tolerance`` (paper Eq. 5-8, ``warp_cut.bezier``); its end
+segments fitted to it within ``tolerance`` (paper Eq. 5-8, ``warp_cut.cut.bezier``); its end
 point is the latest contact point, so the incision's end follows the tool.
 
 The incision is a slit with two lips. Its stations are arc-length positions u along the

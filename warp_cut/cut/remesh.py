@@ -2,7 +2,7 @@
 
 The grey area removed by Stage 1 leaves a hole whose border is a chain of surviving nodes.
 Each chain is paired with the lip nodes of the incision that face it (by the slit coordinate
-theta, see ``warp_cut.incision``) and the strip between the two is triangulated by walking
+theta, see ``warp_cut.cut.incision``) and the strip between the two is triangulated by walking
 along both at once: every step adds one triangle, joining the current border node to the
 nearest next lip node or the current lip node to the next border node - whichever new edge
 is shorter. This is the paper's rule: border nodes join their nearest lip node (red springs)
@@ -17,8 +17,8 @@ from collections import defaultdict
 
 import numpy as np
 
+from ..mesh.geometry import triangle_min_angles
 from .classes import NodeClass, SpringClass
-from .triangle_geometry import triangle_min_angles
 
 __all__ = ["hole_chains", "zip_strip", "ear_clip", "fill_hole"]
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import InputError
 from .classes import NodeClass, SpringClass
-from .errors import InputError
 
 __all__ = ["TopologyEditor", "EditReport", "NodePositions"]
 

@@ -23,9 +23,9 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from .errors import InputError
-from .io import write_csv, write_json
-from .scene import apply_overrides
+from ..errors import InputError
+from ..io.files import write_csv, write_json
+from ..scene import apply_overrides
 from .sweep import Scenario, Sweep, toml_value
 
 __all__ = ["BatchStore", "flatten_metrics", "STATUSES", "RECORD_FILE", "RESULTS_FILE",

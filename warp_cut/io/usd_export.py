@@ -33,10 +33,11 @@ import time
 from pathlib import Path
 
 import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
-from .classes import NODE_CLASS_COLORS, NodeClass
-from .errors import InputError, SimulationUnstable
-from .io import atomic_path
+from ..cut.classes import NODE_CLASS_COLORS, NodeClass
+from ..errors import InputError, SimulationUnstable
+from .files import atomic_path
 
 __all__ = ["UsdRecorder", "axis_quaternion", "flatten_usd", "DEFAULT_CHUNK_FRAMES", "USD_SUFFIXES"]
 
@@ -67,7 +68,6 @@ def axis_quaternion(direction) -> tuple[float, float, float, float]:
 
 def _clip_attributes(has_tool: bool):
     """(prim path, attribute name, Sdf type name) of every attribute the chunks animate."""
-    from pxr import Sdf
 
     t = Sdf.ValueTypeNames
     attrs = [(TISSUE, "points", t.Point3fArray), (TISSUE, "extent", t.Float3Array),
@@ -85,7 +85,6 @@ def _clip_attributes(has_tool: bool):
 
 def _extent(points: np.ndarray, pad: float = 0.0):
     """Bounds [min, max] of points (n, 3) [m] grown by ``pad`` [m] (zeros for no points)."""
-    from pxr import Gf, Vt
 
     if len(points) == 0:
         return Vt.Vec3fArray([Gf.Vec3f(0.0), Gf.Vec3f(0.0)])
@@ -159,8 +158,6 @@ class UsdRecorder:
                 raise OSError(f"could not write {target}")
 
     def _start(self) -> None:
-        from pxr import Sdf, Usd, UsdGeom, Vt
-
         self._created_dir = not self.path.parent.exists()
         self._remove_outputs()
         self.clip_dir.mkdir(parents=True)
@@ -211,8 +208,6 @@ class UsdRecorder:
         self._stage = stage
 
     def _new_chunk(self, frame: int) -> None:
-        from pxr import Sdf
-
         layer = Sdf.Layer.CreateAnonymous(self.path.suffix)
         for prim, name, type_name in self._attrs:
             spec = layer.GetPrimAtPath(prim) or Sdf.CreatePrimInLayer(layer, prim)
@@ -223,7 +218,6 @@ class UsdRecorder:
 
     def _close_chunk(self) -> None:
         """Write the chunk file, then the top-level file listing it (each atomically)."""
-        from pxr import Sdf, Usd
 
         if self._chunk is None:
             return
@@ -255,8 +249,6 @@ class UsdRecorder:
         self._set(prim, name, frame, make_value())
 
     def _tissue(self, sim, frame: int) -> None:
-        from pxr import Vt
-
         model = sim.model
         if self._topology is None or self._topology[0] != model.topology_version:
             keep = np.flatnonzero(np.asarray(model.active, dtype=bool))
@@ -291,8 +283,6 @@ class UsdRecorder:
         self._set(TISSUE, "extent", frame, _extent(points))
 
     def _incision(self, sim, frame: int) -> None:
-        from pxr import Vt
-
         controls = sim.incision_controls
         if controls is None:
             pts = np.zeros((0, 3), np.float32)
@@ -308,8 +298,6 @@ class UsdRecorder:
         self._set_held(INCISION, "extent", frame, pts, lambda: _extent(pts, 0.5 * self._curve_width))
 
     def _tool(self, sim, frame: int) -> None:
-        from pxr import Gf, UsdGeom, Vt
-
         if self.tool_radius is None:
             return
         pose = self.tool_path.pose_at(sim.time) if self.tool_path is not None else sim.tool_pose
@@ -371,7 +359,6 @@ def flatten_usd(source, target) -> Path:
     """Write the stage at ``source`` with its chunks resolved into one self-contained file
     ``target`` (.usdc/.usda/.usd), atomically; for tools without value-clip support. The whole
     animation is held in memory while flattening."""
-    from pxr import Usd
 
     source, target = Path(source), Path(target)
     if not source.is_file():

@@ -1,7 +1,6 @@
 """Sweep files: a base scene and the parameters to vary, expanded into named scenarios.
 
 A sweep file is TOML (see README, "Batch runs")::
-
     base = "skin_press.toml"   # scene file relative to this file, or a bundled scene name,
                                # or an inline [base] table holding a whole scene
     repeat = 1                 # runs of every scenario; ids gain __rep<k> when > 1
@@ -32,8 +31,10 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import SceneError
-from .scene import apply_overrides, bundled_scene_names, bundled_scene_path
+import tomli_w
+
+from ..errors import SceneError
+from ..scene import apply_overrides, bundled_scene_names, bundled_scene_path
 
 __all__ = ["Scenario", "Sweep", "load_sweep", "parse_sweep", "toml_value", "TAG_PREFIX"]
 
@@ -170,7 +171,6 @@ def _table(path, data: dict, key: str) -> dict:
 
 def _inline_base(path: Path, base: dict):
     """(data, text) of an inline base; a relative ``tissue.path`` resolves against the sweep file."""
-    import tomli_w
 
     base = copy.deepcopy(base)
     tissue = base.get("tissue")

@@ -11,9 +11,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
-from .errors import InputError
+from ..errors import InputError
+from ..mesh.patch import skin_patch_mesh
 from .material import Material
+from .slots import SlotTable
 
 __all__ = ["TissueModel", "triangle_edges", "lumped_masses", "boundary_nodes"]
 
@@ -76,7 +79,7 @@ def _per_item(value, count: int, name: str, lower_open: bool = False) -> np.ndar
 class TissueModel:
     """A mass-spring tissue: nodes, springs, triangles, residual links, material.
 
-    Storage is slot tables (``warp_cut.slots.SlotTable``) so that a cut edits in place:
+    Storage is slot tables (``warp_cut.sim.slots.SlotTable``) so that a cut edits in place:
     a deleted node keeps its slot (``active`` False) and node indices never change; deleted
     springs, triangles and links leave dead slots that the kernels skip.
 
@@ -100,8 +103,6 @@ class TissueModel:
 
     def __init__(self, points, masses, springs, rest_lengths, stiffness, damping,
                  pinned, triangles, material: Material):
-        from .slots import SlotTable
-
         n = len(points)
         self.node_table = SlotTable({
             "points": points, "masses": masses, "damping": damping,
@@ -273,7 +274,6 @@ class TissueModel:
     def from_patch(cls, size=(0.10, 0.06), spacing: float = 2.0e-3, *,
                    material: Material | None = None, pinned="border") -> "TissueModel":
         """A rectangular skin patch in the XY plane, centred on the origin (see skin_patch_mesh)."""
-        from .patch import skin_patch_mesh
 
         pts, tri = skin_patch_mesh(size, spacing)
         return cls.from_triangles(pts, tri, material=material, pinned=pinned)
@@ -283,7 +283,6 @@ class TissueModel:
                        scale: float = 1.0) -> "TissueModel":
         """A triangle mesh file (OBJ/STL/PLY, metres unless scaled) through trimesh,
         with duplicate vertices merged."""
-        import trimesh
 
         path = Path(path)
         if not path.is_file():

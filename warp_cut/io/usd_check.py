@@ -22,6 +22,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from pxr import Gf, Usd, UsdGeom, UsdValidation
 
 __all__ = ["check_usd", "validate_usd"]
 
@@ -30,8 +31,6 @@ _EXTENT_TOLERANCE = 1e-6
 
 
 def _times(prim, start: float, end: float) -> list[float]:
-    from pxr import Gf
-
     times = {float(start)}
     interval = Gf.Interval(start, end)
     for attr in prim.GetAttributes():
@@ -92,8 +91,6 @@ def _check_mesh(mesh, t: float, where: str) -> tuple[list[str], dict]:
 
 
 def _check_curves(curves, t: float, where: str) -> tuple[list[str], dict]:
-    from pxr import UsdGeom
-
     points = _array(curves.GetPointsAttr().Get(t))
     counts = _array(curves.GetCurveVertexCountsAttr().Get(t), np.int64)
     # varying counts segments on curves, not points: not checked
@@ -117,8 +114,6 @@ def _check_curves(curves, t: float, where: str) -> tuple[list[str], dict]:
 
 
 def _check_primvars(prim, t: float, where: str, sizes: dict) -> list[str]:
-    from pxr import UsdGeom
-
     expected_by = {UsdGeom.Tokens.constant: 1, UsdGeom.Tokens.uniform: sizes.get("faces"),
                    UsdGeom.Tokens.vertex: sizes.get("points"),
                    UsdGeom.Tokens.varying: sizes.get("varying", sizes.get("points")),
@@ -151,7 +146,6 @@ def _check_primvars(prim, t: float, where: str, sizes: dict) -> list[str]:
 
 def check_usd(path) -> list[str]:
     """Problems found in the stage at ``path``, one message each (an empty list: none)."""
-    from pxr import Usd, UsdGeom
 
     path = Path(path)
     if not path.is_file():
@@ -199,7 +193,6 @@ def check_usd(path) -> list[str]:
 
 def validate_usd(path) -> list[str]:
     """Messages of every registered ``pxr.UsdValidation`` validator on the stage at ``path``."""
-    from pxr import Usd, UsdValidation
 
     stage = Usd.Stage.Open(str(path))
     validators = UsdValidation.ValidationRegistry().GetOrLoadAllValidators()

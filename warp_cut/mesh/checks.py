@@ -72,17 +72,17 @@ CHECKS: Dict[str, str] = {
 _SHOW = 5  # how many offending elements a message lists
 
 
-from .triangle_geometry import (  # noqa: F401 - re-exported
-    _as_points,
+from .geometry import (  # noqa: F401 - re-exported
+    _angles_of_corners,
     _as_index_array,
     _as_pairs,
+    _as_points,
     _cross_of_corners,
-    _angles_of_corners,
-    triangle_angles,
-    triangle_min_angles,
-    triangle_areas,
-    triangle_normals,
     edges_of,
+    triangle_angles,
+    triangle_areas,
+    triangle_min_angles,
+    triangle_normals,
 )
 
 

@@ -15,9 +15,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import PolyCollection
+from matplotlib.figure import Figure
 
-from .classes import NODE_CLASS_COLORS, NodeClass
-from .io import atomic_path
+from ..cut.bezier import BezierChain
+from ..cut.classes import NODE_CLASS_COLORS, NodeClass
+from ..cut.width_curve import analyse_width
+from .files import atomic_path
 
 __all__ = ["FinalFrame", "RunPicture", "plot_preview", "plot_series", "write_run_plots",
            "new_figure", "save_figure", "WIDTH_COLUMN"]
@@ -67,9 +72,6 @@ class FinalFrame:
 
 
 def new_figure(width=6.4, height=4.8):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     fig = Figure(figsize=(width, height), dpi=120)
     FigureCanvasAgg(fig)
     return fig
@@ -85,9 +87,7 @@ def save_figure(fig, path) -> Path:
 
 def plot_preview(path, picture: RunPicture, title: str = "") -> Path:
     """Draw the mesh from above with node classes coloured; returns the path written."""
-    from matplotlib.collections import PolyCollection
 
-    from .bezier import BezierChain
 
     x = np.asarray(picture.positions, dtype=np.float64) * _MM
     tri = np.asarray(picture.triangles, dtype=np.int64).reshape(-1, 3)
@@ -164,8 +164,6 @@ def write_run_plots(out_dir, columns: dict, picture: RunPicture | None, name: st
                                    {"|F|": np.linalg.norm(f, axis=1), "Fx": f[:, 0], "Fy": f[:, 1],
                                     "Fz": f[:, 2]}, "tool force [N]", f"{name} tool force".strip()))
     if t is not None and WIDTH_COLUMN in columns:
-        from .width_curve import analyse_width
-
         w = np.asarray(columns[WIDTH_COLUMN], dtype=np.float64)
         marks = {}
         try:

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 __all__ = ["skin_patch_mesh"]
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..kernels.collision import cylinder_contact_mask
 from .control import Tool
 
 __all__ = ["cylinder_contacts"]
@@ -17,7 +18,6 @@ def cylinder_contacts(points, p0, p1, radius: float, device: str = "cpu") -> np.
     at p0 and p1 at most 90 degrees) and its distance to the axis is strictly below the radius.
     A zero-length or zero-radius cylinder contains nothing.
     """
-    from .kernels.collision import cylinder_contact_mask
 
     tool = Tool(p0, p1, radius)
     pts = np.asarray(points, dtype=np.float32).reshape(-1, 3)

@@ -10,6 +10,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
 __all__ = ["atomic_path", "write_json", "write_csv", "write_ply"]
 
@@ -77,7 +78,6 @@ def write_csv(path, header: list[str], rows) -> None:
 def write_ply(path, points, triangles, node_class=None) -> None:
     """Write a triangle surface as binary PLY through trimesh; ``node_class`` (k,) becomes the
     vertex property ``node_class``."""
-    import trimesh
 
     mesh = trimesh.Trimesh(np.asarray(points), np.asarray(triangles), process=False)
     if node_class is not None:

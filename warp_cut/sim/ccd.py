@@ -14,8 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from ..errors import InputError
+from ..kernels import NODE_ACTIVE
+from ..kernels.ccd import NO_CONTACT, earliest_contact_nodes, swept_cylinder_first_contact
 from .control import Tool
-from .errors import InputError
 
 __all__ = ["SweptContact", "ContinuousDetector", "swept_first_contact", "TIE_TOLERANCE"]
 
@@ -73,7 +75,6 @@ class ContinuousDetector:
         so a contact exactly at the end (where a per-step test and this one may round
         differently) is found in this interval. Returns None if no node is reached.
         """
-        from .kernels.ccd import NO_CONTACT, earliest_contact_nodes, swept_cylinder_first_contact
 
         n = positions.shape[0]
         if n == 0 or end.radius <= 0.0:
@@ -114,7 +115,6 @@ def swept_first_contact(points, start: Tool, end: Tool, *, velocities=None, inte
     velocities: None (nodes still) or (n, 3) [m/s]; active: None or (n,) bool mask of the
     nodes to test. Returns a SweptContact, or None if the tool reaches no node.
     """
-    from .kernels import NODE_ACTIVE
 
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):

@@ -29,11 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .control import ToolPath
 from .errors import InputError
-from .io import write_csv
-from .material import Material
-from .model import TissueModel
+from .io.files import atomic_path, write_csv
+from .io.plots import new_figure, save_figure
+from .sim.control import ToolPath
+from .sim.material import Material
+from .sim.model import TissueModel
+from .simulator import Simulator
 
 __all__ = ["CollisionCase", "analytic_first_contact", "run_case", "run_experiment",
            "write_report", "PAPER_MEAN_RELATIVE_ERROR_PCT"]
@@ -100,7 +102,6 @@ def run_case(angle_deg: float, speed: float, *, t0: float = 2.0, rate: float = 1
              size=(0.03, 0.03), spacing: float = 0.002, radius: float = 0.001,
              length: float = 0.04, device: str = "cpu") -> CollisionCase:
     """Simulate one approach at ``rate`` [Hz] steps until the per-step test reports contact."""
-    from .simulator import Simulator
 
     model = TissueModel.from_patch(size, spacing, material=Material(), pinned="border")
     tip0, a, point = analytic_first_contact(model.points, angle_deg, speed, t0, radius)
@@ -200,8 +201,6 @@ def _markdown(cases: list[CollisionCase], rate: float) -> str:
 
 
 def _plot(path: Path, cases: list[CollisionCase], rate: float) -> None:
-    from .plots import new_figure, save_figure
-
     fig = new_figure(11.0, 5.0)
     ax, bx = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
     markers = "os^DvP*X"
@@ -253,7 +252,6 @@ def _plot(path: Path, cases: list[CollisionCase], rate: float) -> None:
 
 def write_report(out_dir, cases: list[CollisionCase], rate: float = 1000.0) -> list[Path]:
     """Write collision.csv, collision.md and collision_points.png into ``out_dir``."""
-    from .io import atomic_path
 
     out = Path(out_dir)
     write_csv(out / "collision.csv", _CSV_COLUMNS, (_row(c) for c in cases))

@@ -1,0 +1,12 @@
+"""Warp's process-wide settings that warp_cut changes."""
+
+from __future__ import annotations
+
+import warp as wp
+
+__all__ = ["quiet_warp"]
+
+
+def quiet_warp() -> None:
+    """Let Warp print warnings and errors only (no per-module compile messages)."""
+    wp.config.log_level = wp.LOG_WARNING
