@@ -3,7 +3,8 @@
     .venv/bin/python benchmarks/bench_batch.py      # writes benchmarks/results/bench_batch.{csv,md}
 
 * ``press``: 16 scenarios (a 4 x 4 grid of stiffness and damping) of the full press scene
-  (10 x 6 cm patch, 1 s simulated; about a second of work each here, USD and pictures included), on 1 and 2 workers: the speed-up.
+  (10 x 6 cm patch, 1 s simulated; about a second of work each here, USD and pictures
+  included), on 1 and 2 workers: the speed-up.
 * ``tiny16`` and ``tiny64``: 16 and 64 scenarios of a 2 x 2 cm patch for 10 ms (the work is
   then mostly the run's pictures and USD), on 1 worker. ``wall = start + N (work + overhead)``, so the
   difference of the two gives the marginal cost of a scenario beyond its own work:

@@ -57,7 +57,7 @@ def run(repeats: int = 5, quick: bool = False):
             sim.solver.topology_changed()
             sims[name] = sim
 
-        def substep(sim):
+        def substep(sim, tool=tool, h=h):
             st = [sim.state, sim._next]
 
             def go():
@@ -75,10 +75,10 @@ def run(repeats: int = 5, quick: bool = False):
         fns = {name: substep(sim) for name, sim in sims.items()}
         fns["springs_alone"] = spring_cmd.launch
         ref = NumpySemiImplicit(model)
-        fns["numpy"] = lambda: ref.step(h, (tool.p0, tool.p1, tool.radius))
+        fns["numpy"] = lambda ref=ref, h=h, tool=tool: ref.step(h, (tool.p0, tool.p1, tool.radius))
         if newton_missing is None:
             nt = NewtonSemiImplicit(model)
-            fns["newton"] = lambda: nt.step(h)
+            fns["newton"] = lambda nt=nt, h=h: nt.step(h)
         calls = {name: max(3, int(2e5 // S)) for name in fns}
         calls["implicit_euler"] = max(2, calls["implicit_euler"] // 20)
         calls["numpy"] = max(2, calls["numpy"] // 10)

@@ -66,7 +66,7 @@ def run(nodes: int, frames: int, chunk: int, fps: float = 60.0) -> dict:
             model.node_class[np.unique(model.triangles)[:50]] = NodeClass.GREY
             model.topology_version += 1
         tool = Tool([centre[0], 0, 0.001], [centre[0] + 0.03, 0, 0.02], 0.001)
-        sim = SimpleNamespace(model=model, state=SimpleNamespace(positions=SimpleNamespace(numpy=lambda: x)),
+        sim = SimpleNamespace(model=model, state=SimpleNamespace(positions=SimpleNamespace(numpy=lambda x=x: x)),
                               time=t, incision_controls=None, tool_pose=tool, substep=1e-3,
                               step_limit=SimpleNamespace(step=1e-3))
         rec.on_frame(sim, frame)

@@ -24,7 +24,7 @@ def interleaved(fns: dict, calls: dict, repeats: int) -> dict:
     """Time each fn ``repeats`` times, interleaved (so machine load hits all alike). Each
     timing follows one untimed call, so no implementation pays for the caches the previous
     one left cold. Returns name -> array (repeats,) of seconds per call."""
-    for name, fn in fns.items():  # compile, record
+    for fn in fns.values():  # compile, record
         fn()
     out = {name: [] for name in fns}
     for _ in range(repeats):
@@ -59,7 +59,8 @@ def write_csv(name: str, rows: list[dict]) -> Path:
 
 def markdown_table(rows: list[dict], columns: list[str] | None = None) -> str:
     columns = columns or list(rows[0])
-    fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)
+    def fmt(v):
+        return f"{v:.4g}" if isinstance(v, float) else str(v)
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
     lines += ["| " + " | ".join(fmt(r[c]) for c in columns) + " |" for r in rows]
     return "\n".join(lines)

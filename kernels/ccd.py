@@ -122,7 +122,7 @@ def roots_between_breaks(c: vec5d, breaks: vec5d):
     """Roots in [0, 1] of c, monotonic between consecutive ``breaks`` (ascending, in [0, 1],
     padded with NO_CONTACT), ascending and padded with NO_CONTACT."""
     out = vec5d(_NONE, _NONE, _NONE, _NONE, _NONE)
-    count = int(0)
+    count = 0
     lo = wp.float64(0.0)
     for k in range(6):
         hi = wp.float64(1.0)

@@ -16,7 +16,7 @@ wp.set_module_options({"enable_backward": False})
 def point_segment_distance(x: wp.vec3, a: wp.vec3, b: wp.vec3):
     ab = b - a
     denom = wp.dot(ab, ab)
-    t = float(0.0)
+    t = 0.0
     if denom > 0.0:
         t = wp.clamp(wp.dot(x - a, ab) / denom, 0.0, 1.0)
     return wp.length(x - (a + ab * t))
@@ -32,8 +32,8 @@ def segment_segment_distance(p0: wp.vec3, p1: wp.vec3, q0: wp.vec3, q1: wp.vec3)
     a = wp.dot(d1, d1)
     e = wp.dot(d2, d2)
     f = wp.dot(d2, r)
-    s = float(0.0)
-    t = float(0.0)
+    s = 0.0
+    t = 0.0
     eps = 1.0e-30
     if a <= eps and e <= eps:
         return wp.length(r)

@@ -263,7 +263,7 @@ def cg_descend(
     if converged(cg, k_iter, tol2):
         return
     pap = cg[k_iter, 1]
-    alpha = float(0.0)
+    alpha = 0.0
     if pap > wp.float64(0.0):
         alpha = float(cg[k_iter, 0] / pap)
     i = wp.tid() * chunk

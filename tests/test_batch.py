@@ -111,8 +111,9 @@ def test_dask_cluster_gives_identical_metrics(pool_run, tmp_path):
         assert _files(ours) == _files(theirs)
         for file in _files(ours) - {"metrics.json", "scenario.json"}:
             assert (ours / file).read_bytes() == (theirs / file).read_bytes()
-    drop = lambda row: {k: v for k, v in row.items()
-                        if k not in WALL_FIELDS | {"worker_time_s", "usd_file"}}
+    def drop(row):
+        return {k: v for k, v in row.items()
+                            if k not in WALL_FIELDS | {"worker_time_s", "usd_file"}}
     assert [drop(r) for r in _rows(out)] == [drop(r) for r in _rows(pool_out)]
 
 

@@ -34,7 +34,8 @@ def test_random_points_match_oracle(seed, radius):
     p0, p1 = rng.normal(size=3), rng.normal(size=3)
     pts = rng.normal(size=(500, 3))
     got = cylinder_contacts(pts, p0, p1, radius)
-    p32 = lambda a: np.asarray(a, np.float32).astype(np.float64)
+    def p32(a):
+        return np.asarray(a, np.float32).astype(np.float64)
     want, margin = oracle(p32(pts), p32(p0), p32(p1), np.float32(radius))
     clear = margin > 1e-5  # float32 kernel vs float64 oracle agree away from the boundary
     np.testing.assert_array_equal(got[clear], want[clear])
@@ -87,7 +88,8 @@ def test_push_out_to_surface_and_reaction():
     np.testing.assert_allclose(psum, [0.1, 0.2, 1.5], rtol=1e-6)
     # radial push to distance r, axial coordinate kept
     np.testing.assert_allclose(np.hypot(x[0, 0], x[0, 1]), r, rtol=1e-6)
-    np.testing.assert_allclose(x[0, :2] / np.linalg.norm(x[0, :2]), np.array([0.1, 0.2]) / np.hypot(0.1, 0.2), rtol=1e-6)
+    np.testing.assert_allclose(x[0, :2] / np.linalg.norm(x[0, :2]), np.array([0.1, 0.2]) / np.hypot(0.1, 0.2),
+                               rtol=1e-6)
     assert x[0, 2] == pytest.approx(1.0)
     # on the axis (d = 0): a defined perpendicular direction, finite
     assert np.all(np.isfinite(x[1])) and np.hypot(x[1, 0], x[1, 1]) == pytest.approx(r, rel=1e-6)

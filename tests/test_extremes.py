@@ -142,7 +142,8 @@ def test_tool_faster_than_one_radius_per_step(integrator):
     sim = Simulator(model, dt=1e-3, integrator=integrator, device=DEVICE)
     r = 0.0005
     # 10 radii per step, sweeping through the sheet from below to above and across
-    path = lambda t: Tool([-0.015 + 5.0 * t, 0, -0.003 + 2.0 * t], [-0.015 + 5.0 * t, 0, 0.01 + 2.0 * t], r)
+    def path(t):
+        return Tool([-0.015 + 5.0 * t, 0, -0.003 + 2.0 * t], [-0.015 + 5.0 * t, 0, 0.01 + 2.0 * t], r)
     for _ in range(8):
         sim.step(1, tool=path)
         assert np.all(np.isfinite(sim.tool_force))

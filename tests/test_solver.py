@@ -59,8 +59,10 @@ def run_positions(integrator, replay, steps=40):
     sim = Simulator(model, dt=1e-3, integrator=integrator, device=DEVICE)
     sim.solver.replay = replay
     sim.solver.topology_changed()
-    depth = lambda t: max(0.002 - 0.2 * t, -0.002)
-    tool = lambda t: Tool([0, 0, depth(t)], [0.02, 0, 0.02 + depth(t)], 0.001)
+    def depth(t):
+        return max(0.002 - 0.2 * t, -0.002)
+    def tool(t):
+        return Tool([0, 0, depth(t)], [0.02, 0, 0.02 + depth(t)], 0.001)
     sim.step(steps, tool=tool)
     return sim.positions, sim.tool_force
 

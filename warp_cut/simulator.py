@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Callable, Union
+from collections.abc import Callable
 
 import numpy as np
 import warp as wp
@@ -26,7 +26,7 @@ __all__ = ["Simulator", "DEFAULT_GRAVITY"]
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 """Standard gravity [m/s^2], Z up."""
 
-ToolInput = Union[None, Tool, ToolPath, Callable[[float], Tool]]
+ToolInput = None | Tool | ToolPath | Callable[[float], Tool]
 
 
 class Simulator:

@@ -106,7 +106,7 @@ def _open_executor(workers: int | None, scheduler: str | None):
     """(executor, close) for the local pool or a Dask cluster."""
     if scheduler:
         try:
-            from distributed import Client
+            from distributed import Client  # noqa: PLC0415 - optional dependency (cluster extra)
         except ImportError:
             raise InputError("--scheduler needs Dask: pip install 'warp-cut[cluster]'") from None
         try:

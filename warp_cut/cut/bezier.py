@@ -104,7 +104,8 @@ def _adaptive_length(ctrl, a0=0.0, a1=1.0, atol=None, depth=0):
     Gauss-Legendre estimates agree to ``atol`` (1e-14 of the control polygon length)."""
     if atol is None:
         atol = 1e-14 * np.linalg.norm(np.diff(ctrl, axis=0), axis=1).sum()
-    one = lambda lo, hi: float(_gauss_length(ctrl[None], np.array([lo]), np.array([hi]))[0])
+    def one(lo, hi):
+        return float(_gauss_length(ctrl[None], np.array([lo]), np.array([hi]))[0])
     mid = 0.5 * (a0 + a1)
     whole, halves = one(a0, a1), one(a0, mid) + one(mid, a1)
     if abs(halves - whole) <= atol or depth >= 12:
@@ -264,7 +265,8 @@ class BezierChain:
         step = max(1, 4_000_000 // len(grid))
         for i in range(0, len(x), step):
             best[i:i + step] = np.argmin(((x[i:i + step, None] - g[None]) ** 2).sum(-1), axis=1)
-        f = lambda u: ((self._eval(u) - x) ** 2).sum(1)
+        def f(u):
+            return ((self._eval(u) - x) ** 2).sum(1)
         lo, hi = np.clip(grid[best] - h, 0, s), np.clip(grid[best] + h, 0, s)
         r = (math.sqrt(5.0) - 1.0) / 2.0
         c, d = hi - r * (hi - lo), lo + r * (hi - lo)

@@ -313,7 +313,8 @@ def _acceptable(strip, editor, positions, normal) -> bool:
             directed.add((a, b))
     corners = editor.model.triangle_table.column("corners")
     for a, b in directed:
-        existing = editor.triangles_with_edge(a, b) if a < len(editor.node_triangles) and b < len(editor.node_triangles) else set()
+        known = a < len(editor.node_triangles) and b < len(editor.node_triangles)
+        existing = editor.triangles_with_edge(a, b) if known else set()
         if len(existing) >= 2 or (b, a) in directed and existing:
             return False
         for t in existing:  # the surviving triangle must run the edge the other way

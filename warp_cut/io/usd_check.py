@@ -75,7 +75,8 @@ def _check_mesh(mesh, t: float, where: str) -> tuple[list[str], dict]:
                         f"{len(indices)} face vertex indices")
     elif len(indices):
         if indices.min() < 0 or indices.max() >= len(points):
-            problems.append(f"{where}: face vertex index {int(indices.max() if indices.max() >= len(points) else indices.min())} "
+            bad = int(indices.max() if indices.max() >= len(points) else indices.min())
+            problems.append(f"{where}: face vertex index {bad} "
                             f"outside the {len(points)} points")
         else:
             starts = np.concatenate([[0], np.cumsum(counts)[:-1]])

@@ -29,9 +29,21 @@ check name to the number of offending elements.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional
 
 import numpy as np
+
+from .geometry import (  # noqa: F401 - re-exported
+    _angles_of_corners,
+    _as_index_array,
+    _as_pairs,
+    _as_points,
+    _cross_of_corners,
+    edges_of,
+    triangle_angles,
+    triangle_areas,
+    triangle_min_angles,
+    triangle_normals,
+)
 
 __all__ = [
     "CHECKS",
@@ -46,7 +58,7 @@ __all__ = [
 ]
 
 #: Name -> description of every invariant checked by :func:`check_mesh`.
-CHECKS: Dict[str, str] = {
+CHECKS: dict[str, str] = {
     "points_finite": "coordinates of active nodes are finite",
     "mass_invalid": "masses of active nodes are finite and > 0",
     "mass_total": "total active mass equals expected_total_mass (relative tolerance)",
@@ -72,24 +84,12 @@ CHECKS: Dict[str, str] = {
 _SHOW = 5  # how many offending elements a message lists
 
 
-from .geometry import (  # noqa: F401 - re-exported
-    _angles_of_corners,
-    _as_index_array,
-    _as_pairs,
-    _as_points,
-    _cross_of_corners,
-    edges_of,
-    triangle_angles,
-    triangle_areas,
-    triangle_min_angles,
-    triangle_normals,
-)
 
 
 class MeshInvalid(ValueError):
     """Raised by :meth:`MeshReport.raise_if_invalid`; lists every problem."""
 
-    def __init__(self, problems: List[str], report: "Optional[MeshReport]" = None, context: str = ""):
+    def __init__(self, problems: list[str], report: MeshReport | None = None, context: str = ""):
         self.problems = list(problems)
         self.report = report
         head = f"{context}: " if context else ""
@@ -128,13 +128,13 @@ class MeshReport:
     """
 
     valid: bool
-    problems: List[str]
+    problems: list[str]
     min_angle_deg: float
     slivers: int
     triangle_count: int
     spring_count: int
     node_count: int
-    problem_counts: Dict[str, int] = field(default_factory=dict)
+    problem_counts: dict[str, int] = field(default_factory=dict)
     edge_count: int = 0
     boundary_edge_count: int = 0
     nonmanifold_edge_count: int = 0
@@ -144,7 +144,7 @@ class MeshReport:
     max_angle_deg: float = float("nan")
     min_area: float = float("nan")
     min_spring_length: float = float("nan")
-    total_mass: Optional[float] = None
+    total_mass: float | None = None
     sliver_angle_deg: float = 10.0
     sliver_indices: np.ndarray = field(
         default_factory=lambda: np.zeros(0, dtype=np.int64), repr=False, compare=False
@@ -154,7 +154,7 @@ class MeshReport:
         """True if the named check (a key of :data:`CHECKS`) reported a problem."""
         return check in self.problem_counts
 
-    def raise_if_invalid(self, context: str = "") -> "MeshReport":
+    def raise_if_invalid(self, context: str = "") -> MeshReport:
         """Raise :class:`MeshInvalid` listing all problems; return self if valid."""
         if self.problems:
             raise MeshInvalid(self.problems, self, context)
@@ -207,7 +207,8 @@ def _check_indices(idx, prefix: str, noun: str, n: int, act, add):
                               (f"{prefix}_index_range", high, f"node index >= node count {n}")):
         bad = np.flatnonzero(mask)
         if bad.size:
-            add(check, bad.size, f"{bad.size} {noun}(s) with {what}; {noun}s {_first(bad)} -> nodes {_fmt(idx[bad[:_SHOW]])}")
+            add(check, bad.size,
+                f"{bad.size} {noun}(s) with {what}; {noun}s {_first(bad)} -> nodes {_fmt(idx[bad[:_SHOW]])}")
     safe = np.where(ok[:, None], idx, 0)
     bad = np.flatnonzero(ok & ~act[safe].all(axis=1))
     if bad.size:
@@ -225,7 +226,7 @@ def check_mesh(
     masses=None,
     extra_springs=None,
     reference_normal=None,
-    expected_total_mass: Optional[float] = None,
+    expected_total_mass: float | None = None,
     sliver_angle_deg: float = 10.0,
     min_length: float = 1e-12,
     min_area: float = 1e-18,
@@ -280,8 +281,8 @@ def check_mesh(
         if act.shape != (n,):
             raise ValueError(f"active must have shape ({n},), got {act.shape}")
 
-    problems: List[str] = []
-    counts: Dict[str, int] = {}
+    problems: list[str] = []
+    counts: dict[str, int] = {}
 
     def add(check: str, count: int, text: str) -> None:
         counts[check] = counts.get(check, 0) + int(count)
@@ -294,7 +295,7 @@ def check_mesh(
         add("points_finite", bad.size,
             f"{bad.size} active node(s) with non-finite coordinates; nodes {_first(bad)} -> {_fmt(p[bad[:_SHOW]])}")
 
-    total_mass: Optional[float] = None
+    total_mass: float | None = None
     if masses is not None:
         m = np.asarray(masses, dtype=np.float64)
         if m.shape != (n,):
@@ -302,7 +303,8 @@ def check_mesh(
         bad = np.flatnonzero(act & ~(np.isfinite(m) & (m > 0)))
         if bad.size:
             add("mass_invalid", bad.size,
-                f"{bad.size} active node(s) with non-finite or non-positive mass; nodes {_first(bad)} -> kg {_fmt(m[bad[:_SHOW]])}")
+                f"{bad.size} active node(s) with non-finite or non-positive mass; nodes {_first(bad)} "
+                f"-> kg {_fmt(m[bad[:_SHOW]])}")
         total_mass = float(np.sum(m[act]))
         if expected_total_mass is not None:
             exp = float(expected_total_mass)
@@ -320,7 +322,8 @@ def check_mesh(
     bad = np.flatnonzero(tri_rep)
     if bad.size:
         add("tri_repeated_vertex", bad.size,
-            f"{bad.size} triangle(s) without three distinct vertices; triangles {_first(bad)} -> nodes {_fmt(tri[bad[:_SHOW]])}")
+            f"{bad.size} triangle(s) without three distinct vertices; triangles {_first(bad)} "
+            f"-> nodes {_fmt(tri[bad[:_SHOW]])}")
 
     cand = np.flatnonzero(tri_ok & ~tri_rep)
     if cand.size > 1:
@@ -335,7 +338,8 @@ def check_mesh(
         bad = cand[cnt[inv] > 1]
         if bad.size:
             add("tri_duplicate", bad.size,
-                f"{bad.size} triangle(s) sharing their vertex set with another; triangles {_first(bad)} -> nodes {_fmt(tri[bad[:_SHOW]])}")
+                f"{bad.size} triangle(s) sharing their vertex set with another; triangles {_first(bad)} "
+                f"-> nodes {_fmt(tri[bad[:_SHOW]])}")
 
     # ------------------------------------------------- triangle geometry
     tri_geo = tri_ok & finite_pt[safe_tri].all(axis=1)
@@ -357,7 +361,8 @@ def check_mesh(
         bad = np.flatnonzero(degenerate)
         if bad.size:
             add("tri_degenerate", bad.size,
-                f"{bad.size} triangle(s) with area < min_area={min_area:g} m^2; triangles {_first(bad)} -> m^2 {_fmt(areas[bad[:_SHOW]])}")
+                f"{bad.size} triangle(s) with area < min_area={min_area:g} m^2; triangles {_first(bad)} "
+                f"-> m^2 {_fmt(areas[bad[:_SHOW]])}")
         if reference_normal is not None:
             ref = np.asarray(reference_normal, dtype=np.float64).reshape(-1)
             rn = np.linalg.norm(ref) if ref.shape == (3,) else 0.0
@@ -413,7 +418,8 @@ def check_mesh(
     spr_self = spr[:, 0] == spr[:, 1]
     bad = np.flatnonzero(spr_self)
     if bad.size:
-        add("spring_self", bad.size, f"{bad.size} self spring(s); springs {_first(bad)} -> nodes {_fmt(spr[bad[:_SHOW]])}")
+        add("spring_self", bad.size,
+            f"{bad.size} self spring(s); springs {_first(bad)} -> nodes {_fmt(spr[bad[:_SHOW]])}")
 
     pair_idx = np.flatnonzero(spr_ok & ~spr_self)
     spring_keys = np.zeros(0, dtype=np.int64)
@@ -437,7 +443,8 @@ def check_mesh(
         bad = pair_idx[stray]
         if bad.size:
             add("spring_stray", bad.size,
-                f"{bad.size} spring(s) that are neither triangle edges nor allowed extra springs; springs {_first(bad)} "
+                f"{bad.size} spring(s) that are neither triangle edges nor allowed extra springs; "
+                f"springs {_first(bad)} "
                 f"-> nodes {_fmt(spr[bad[:_SHOW]])}")
 
     # springs missing for triangle edges

@@ -189,7 +189,7 @@ class TissueModel:
     @classmethod
     def from_arrays(cls, points, springs, masses, pinned=None, triangles=None, *,
                     stiffness=None, damping=None, rest_lengths=None,
-                    material: Material | None = None) -> "TissueModel":
+                    material: Material | None = None) -> TissueModel:
         """Build a model from raw arrays.
 
         points (n, 3) [m]; springs (s, 2) node indices; masses scalar or (n,) [kg] > 0;
@@ -246,7 +246,7 @@ class TissueModel:
 
     @classmethod
     def from_triangles(cls, points, triangles, *, material: Material | None = None,
-                       pinned=None, uniform_mass: float | None = None) -> "TissueModel":
+                       pinned=None, uniform_mass: float | None = None) -> TissueModel:
         """A surface mesh as a tissue: springs = unique edges, lumped masses from
         density x thickness x one third of the adjacent triangle areas (or a uniform mass [kg])."""
         material = material or Material()
@@ -272,7 +272,7 @@ class TissueModel:
 
     @classmethod
     def from_patch(cls, size=(0.10, 0.06), spacing: float = 2.0e-3, *,
-                   material: Material | None = None, pinned="border") -> "TissueModel":
+                   material: Material | None = None, pinned="border") -> TissueModel:
         """A rectangular skin patch in the XY plane, centred on the origin (see skin_patch_mesh)."""
 
         pts, tri = skin_patch_mesh(size, spacing)
@@ -280,7 +280,7 @@ class TissueModel:
 
     @classmethod
     def from_mesh_file(cls, path, *, material: Material | None = None, pinned="border",
-                       scale: float = 1.0) -> "TissueModel":
+                       scale: float = 1.0) -> TissueModel:
         """A triangle mesh file (OBJ/STL/PLY, metres unless scaled) through trimesh,
         with duplicate vertices merged."""
 

@@ -43,7 +43,8 @@ def material_stiffness(points, triangles, springs, youngs_modulus: float, thickn
     tri_edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     n = len(pts)
     # sum the areas of the triangles at each edge, matched to springs through a scalar key
-    key = lambda e: e[:, 0] * n + e[:, 1]
+    def key(e):
+        return e[:, 0] * n + e[:, 1]
     order = np.argsort(key(spr))
     spring_keys = key(spr)[order]
     pos = np.searchsorted(spring_keys, key(tri_edges))

@@ -46,7 +46,7 @@ class LaunchSequence:
             self._commands.append(wp.launch(kernel, dim=int(count), inputs=inputs,
                                             device=self.device, record_cmd=True))
 
-    def finalize(self) -> "LaunchSequence":
+    def finalize(self) -> LaunchSequence:
         """Capture the recorded commands into a graph when the mode asks for it."""
         if self.mode in ("auto", "graph") and self._commands:
             try:
