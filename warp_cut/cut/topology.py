@@ -153,9 +153,10 @@ class TopologyEditor:
         for slot in {int(s) for s in slots}:
             if not table.alive[slot]:
                 continue
-            i, j = pairs[slot]
+            i, j = (int(v) for v in pairs[slot])
             self.node_links[i].discard(slot)
             self.node_links[j].discard(slot)
+            self._touched.update((i, j))  # their stable-step rows change
             table.kill([slot])
 
     def delete_nodes(self, nodes) -> None:
