@@ -64,8 +64,8 @@ def test_overrides_parse_toml_values():
                                     "name=moon", "solver.dt=\"auto\""])
     scene = parse_scene(data)
     assert scene.material.stiffness == 80.0 and scene.name == "moon"
-    np.testing.assert_allclose(scene.physics["gravity"], [0, 0, -1.62])
-    assert scene.solver["dt"] == "auto"
+    np.testing.assert_allclose(scene.physics.gravity, [0, 0, -1.62])
+    assert scene.solver.dt == "auto"
     with pytest.raises(SceneError, match="section.key=value"):
         apply_overrides(base(), ["stiffness"])
 
@@ -104,7 +104,7 @@ def test_mesh_path_is_relative_to_scene_file(tmp_path):
 def test_bundled_default_scene_loads():
     scene = load_scene(None)
     assert scene.name == "straight_incision" and bundled_scene_path("skin_press").is_file()
-    assert scene.physics["cutting"] and scene.cut_settings() is not None
+    assert scene.physics.cutting and scene.cut_settings() is not None
     assert scene.material.stiffness == 160.0 and scene.material.damping == 3.0
     assert scene.material.youngs_modulus == 20e3 and scene.material.residual_strain == 0.1
     with pytest.raises(SceneError, match="not found"):

@@ -69,8 +69,8 @@ base = "skin_press"
                        sweep.base_path)
     theirs = load_scene("skin_press", sweep.overrides(scenario))
     assert ours.data == theirs.data
-    assert ours.tissue["size"] == (0.02, 0.03) and ours.solver["dt"] == "auto"
-    np.testing.assert_array_equal(ours.physics["gravity"], [0, 0, -1.62])
+    assert ours.tissue.size == (0.02, 0.03) and ours.solver.dt == "auto"
+    np.testing.assert_array_equal(ours.physics.gravity, [0, 0, -1.62])
     assert "--set 'tissue.size=[0.02, 0.03]'" in sweep.command(scenario)
 
 
@@ -177,7 +177,7 @@ def test_bundled_angle_sweep_meets_the_skin_at_2_s_at_every_angle():
     for scenario in sweep.scenarios:
         scene = parse_scene(apply_overrides(sweep.base_data, sweep.overrides(scenario),
                                             sweep.base_path), sweep.base_path)
-        assert scene.physics["gravity"] is None
+        assert scene.physics.gravity is None
         path = scene.tool_path()
         angle = math.radians(scenario.params["tag.angle_deg"])
         for t in (0.0, 2.0, 2.5):
@@ -185,7 +185,7 @@ def test_bundled_angle_sweep_meets_the_skin_at_2_s_at_every_angle():
             axis = (p1 - p0) / np.linalg.norm(p1 - p0)
             assert math.degrees(math.asin(axis[2])) == pytest.approx(scenario.params["tag.angle_deg"])
             # lowest point of the tip's rim: p0 + r (sin a, 0, -cos a)
-            lowest = p0 + scene.tool["radius"] * np.array([math.sin(angle), 0.0, -math.cos(angle)])
+            lowest = p0 + scene.tool.radius * np.array([math.sin(angle), 0.0, -math.cos(angle)])
             assert lowest[2] == pytest.approx(0.005 * (2.0 - t), abs=1e-9)
             assert lowest[0] == pytest.approx(0.0, abs=1e-9)
 

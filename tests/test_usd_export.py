@@ -58,7 +58,7 @@ def test_stage_holds_every_frame_of_the_run(tmp_path):
     assert mesh.GetSubdivisionSchemeAttr().Get() == UsdGeom.Tokens.none
     tool = UsdGeom.Cylinder(stage.GetPrimAtPath("/World/Tool"))
     assert tool.GetAxisAttr().Get() == UsdGeom.Tokens.z
-    assert tool.GetRadiusAttr().Get() == pytest.approx(scene.tool["radius"])
+    assert tool.GetRadiusAttr().Get() == pytest.approx(scene.tool.radius)
     path_ = scene.tool_path()
     for frame, t, x in ref.frames:
         pts = np.array(mesh.GetPointsAttr().Get(frame))

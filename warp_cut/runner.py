@@ -45,11 +45,11 @@ def prepare_simulation(scene: Scene):
     """
     model = scene.build_model()
     frame_dt = 1.0 / scene.fps
-    dt = scene.solver["dt"]
+    dt = scene.solver.dt
     if dt == "auto":
-        limit = INTEGRATORS[scene.solver["integrator"]].step_limit(model).step
-        target = scene.solver["safety"] * limit if math.isfinite(limit) else frame_dt
-        substeps = 1 if scene.solver["substeps"] == "auto" else scene.solver["substeps"]
+        limit = INTEGRATORS[scene.solver.integrator].step_limit(model).step
+        target = scene.solver.safety * limit if math.isfinite(limit) else frame_dt
+        substeps = 1 if scene.solver.substeps == "auto" else scene.solver.substeps
         target *= substeps
     else:
         target = dt
@@ -57,7 +57,7 @@ def prepare_simulation(scene: Scene):
     options = scene.simulator_options()
     sim = Simulator(model, dt=frame_dt / steps_per_frame, **options)
     path = scene.tool_path()
-    if path is not None and scene.physics["collision"]:
+    if path is not None and scene.physics.collision:
         sim.check_tool_outside(path.pose_at(0.0))
     return model, sim, path, steps_per_frame
 

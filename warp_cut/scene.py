@@ -1,6 +1,8 @@
 """Scene files: TOML in SI units, validated key by key before anything runs.
 
-Every error names the file, the key and the allowed range (see README, "Scene files").
+Every error names the file, the key and the allowed range (see docs/scenes.md). A scene is
+parsed section by section into frozen dataclasses: ``TissueSection``, ``PhysicsSection``,
+``SolverSection``, ``ToolSection``, the ``Material`` and the ``CutSettings``.
 """
 
 from __future__ import annotations
@@ -11,7 +13,6 @@ import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -23,8 +24,8 @@ from .sim.model import TissueModel, boundary_nodes
 from .sim.stiffness import STIFFNESS_MODELS, material_stiffness
 from .solvers import INTEGRATORS
 
-__all__ = ["Scene", "load_scene", "parse_scene", "apply_overrides", "bundled_scene_path",
-           "DEFAULT_SCENE"]
+__all__ = ["Scene", "TissueSection", "PhysicsSection", "SolverSection", "ToolSection", "Keyframe",
+           "load_scene", "parse_scene", "apply_overrides", "bundled_scene_path", "DEFAULT_SCENE"]
 
 DEFAULT_SCENE = "straight_incision"
 """Bundled scene run by ``warp-cut run`` without a scene argument."""
@@ -40,13 +41,7 @@ _SCHEMA: dict[str, set[str]] = {
     "tool": {"radius", "length", "keyframes"},
     "cutting": {"sweep_radius", "interval", "force_threshold", "spacing", "tolerance", "lip_offset"},
 }
-_EXTENSIONS: dict[str, set[str]] = {}
-"""Extra top-level tables other modules register (name -> allowed keys)."""
-
-
-def register_section(name: str, keys: set[str]) -> None:
-    """Allow an extra top-level table ``[name]`` with ``keys`` (validated by its owner)."""
-    _EXTENSIONS[name] = set(keys)
+"""Allowed keys of each table ("" is the top level)."""
 
 
 def bundled_scene_path(name: str) -> Path:
@@ -119,24 +114,119 @@ class _Reader:
         return value
 
 
-@dataclass
+@dataclass(frozen=True)
+class TissueSection:
+    """``[tissue]``: where the mesh comes from and which nodes are pinned.
+
+    Attributes:
+        kind: ``"patch"`` (the skin patch generator) or ``"mesh"`` (a mesh file).
+        size: Patch width (x) and height (y) [m] (kind = "patch").
+        spacing: Patch node spacing [m] (kind = "patch").
+        path: Mesh file, resolved against the scene file (kind = "mesh").
+        scale: Factor from mesh-file units to metres.
+        uniform_mass: Every node's mass [kg], or None for lumped masses.
+        pinned: ``"border"``, ``"none"``, ``("box", lower (3,), upper (3,))`` [m] or
+            ``("indices", node indices)``.
+    """
+
+    kind: str = "patch"
+    size: tuple[float, float] = (0.10, 0.06)
+    spacing: float = 2e-3
+    path: Path | None = None
+    scale: float = 1.0
+    uniform_mass: float | None = None
+    pinned: str | tuple = "border"
+
+
+@dataclass(frozen=True)
+class PhysicsSection:
+    """``[physics]``: which physics the scene asks for (what it leaves out is not compiled).
+
+    Attributes:
+        gravity: Gravity [m/s^2], shape (3,), or None for none.
+        residual_stress: Residual-stress links where the cut deletes springs.
+        collision: The tool test and response.
+        cutting: Cut the tissue where the tool goes.
+    """
+
+    gravity: np.ndarray | None
+    residual_stress: bool = True
+    collision: bool = True
+    cutting: bool = False
+
+
+@dataclass(frozen=True)
+class SolverSection:
+    """``[solver]``: the integrator and its step.
+
+    Attributes:
+        integrator: A name of ``warp_cut.solvers.INTEGRATORS``.
+        dt: Step [s] (the tool pose is updated once per step) or ``"auto"``.
+        substeps: Integration substeps per step, or ``"auto"``.
+        safety: Fraction of the stable step the automatic choices use.
+    """
+
+    integrator: str = "semi_implicit"
+    dt: float | str = 1e-3
+    substeps: int | str = "auto"
+    safety: float = 0.5
+
+
+@dataclass(frozen=True)
+class Keyframe:
+    """One tool pose: time t [s], tip p0 [m] and other end p1 [m] of the axis, shape (3,)."""
+
+    t: float
+    p0: np.ndarray
+    p1: np.ndarray
+
+
+@dataclass(frozen=True)
+class ToolSection:
+    """``[tool]``: a rigid cylinder moved through keyframes.
+
+    Attributes:
+        radius: Cylinder radius [m].
+        length: Axis length [m].
+        keyframes: Poses in increasing time, linear in between, held outside.
+    """
+
+    radius: float
+    length: float
+    keyframes: tuple[Keyframe, ...]
+
+
+@dataclass(frozen=True)
 class Scene:
-    """A validated scene. ``data`` is the resolved TOML (overrides applied); ``path`` its file."""
+    """A validated scene.
+
+    Attributes:
+        name: Run name (output directory).
+        duration: Simulated time [s].
+        fps: Output frames per second.
+        device: Warp device.
+        material: Material constants (stiffness, damping, E, residual strain, thickness, density).
+        stiffness_model: ``"constant"`` (every spring K) or ``"material"`` (from E and thickness).
+        tissue, physics, solver: The sections of the same names.
+        tool: The ``[tool]`` section, or None.
+        cutting: Cutting parameters (used when ``physics.cutting`` is on).
+        data: The resolved TOML (overrides applied).
+        path: The scene file, or None.
+    """
 
     name: str
     duration: float
     fps: float
     device: str
     material: Material
-    tissue: dict
-    physics: dict
-    solver: dict
-    tool: dict | None
-    cutting: dict
+    stiffness_model: str
+    tissue: TissueSection
+    physics: PhysicsSection
+    solver: SolverSection
+    tool: ToolSection | None
+    cutting: CutSettings
     data: dict = field(repr=False)
     path: Path | None = None
-    stiffness_model: str = "constant"
-    """``"constant"`` (every spring K) or ``"material"`` (from E and thickness, see stiffness.py)."""
 
     @property
     def frame_count(self) -> int:
@@ -147,70 +237,229 @@ class Scene:
         """The TissueModel this scene describes."""
         t = self.tissue
         try:
-            if t["kind"] == "patch":
-                model = TissueModel.from_patch(t["size"], t["spacing"], material=self.material,
-                                               pinned="none")
+            if t.kind == "patch":
+                model = TissueModel.from_patch(t.size, t.spacing, material=self.material, pinned="none")
             else:
-                model = TissueModel.from_mesh_file(t["path"], material=self.material,
-                                                   pinned="none", scale=t["scale"])
+                model = TissueModel.from_mesh_file(t.path, material=self.material, pinned="none",
+                                                   scale=t.scale)
         except InputError as exc:
             raise SceneError(self.path, "tissue", str(exc)) from exc
-        if t["uniform_mass"] is not None:
-            model.masses[:] = t["uniform_mass"]
-        pinned = t["pinned"]
-        if pinned == "border":
-            model.pinned |= boundary_nodes(model.node_count, model.triangles)
-        elif isinstance(pinned, dict) and "box" in pinned:
-            model.pin_box(*pinned["box"])
-        elif isinstance(pinned, dict) and "indices" in pinned:
-            idx = np.asarray(pinned["indices"], dtype=np.int64)
-            if len(idx) and (idx.min() < 0 or idx.max() >= model.node_count):
-                raise SceneError(self.path, "tissue.pinned.indices",
-                                 f"must be node indices in [0, {model.node_count - 1}]")
-            model.pinned[idx] = True
+        if t.uniform_mass is not None:
+            model.masses[:] = t.uniform_mass
+        self._pin(model)
         if self.stiffness_model == "material":
             model.stiffness = material_stiffness(
                 model.points, model.triangles, model.springs, self.material.youngs_modulus,
                 self.material.thickness, fallback=self.material.stiffness)
         return model
 
+    def _pin(self, model: TissueModel) -> None:
+        pinned = self.tissue.pinned
+        if pinned == "border":
+            model.pinned |= boundary_nodes(model.node_count, model.triangles)
+        elif pinned[0] == "box":
+            model.pin_box(pinned[1], pinned[2])
+        elif pinned[0] == "indices":
+            idx = np.asarray(pinned[1], dtype=np.int64)
+            if len(idx) and (idx.min() < 0 or idx.max() >= model.node_count):
+                raise SceneError(self.path, "tissue.pinned.indices",
+                                 f"must be node indices in [0, {model.node_count - 1}]")
+            model.pinned[idx] = True
+
     def tool_path(self) -> ToolPath | None:
         """The keyframed tool, or None if the scene has no tool."""
         if self.tool is None:
             return None
-        k = self.tool["keyframes"]
-        return ToolPath([f["t"] for f in k], [f["p0"] for f in k], [f["p1"] for f in k],
-                        self.tool["radius"])
+        k = self.tool.keyframes
+        return ToolPath([f.t for f in k], [f.p0 for f in k], [f.p1 for f in k], self.tool.radius)
 
     def simulator_options(self) -> dict:
         """Keyword arguments for ``Simulator`` (without dt, which the run loop fits to frames)."""
-        p = self.physics
-        return dict(integrator=self.solver["integrator"],
-                    gravity=p["gravity"] if p["gravity"] is not None else None,
-                    device=self.device, substeps=self.solver["substeps"],
-                    residual_stress=p["residual_stress"], collision=p["collision"],
-                    safety=self.solver["safety"], cutting=self.cut_settings())
+        p, s = self.physics, self.solver
+        return dict(integrator=s.integrator, gravity=p.gravity, device=self.device,
+                    substeps=s.substeps, residual_stress=p.residual_stress, collision=p.collision,
+                    safety=s.safety, cutting=self.cut_settings())
 
-    def cut_settings(self):
+    def cut_settings(self) -> CutSettings | None:
         """The CutSettings of ``[cutting]`` if ``physics.cutting`` is on, else None."""
-        if not self.physics["cutting"]:
-            return None
-
-        return CutSettings(**self.cutting)
+        return self.cutting if self.physics.cutting else None
 
 
 def _check_keys(reader: _Reader, table: dict, section: str) -> None:
-    allowed = _SCHEMA.get(section) or _EXTENSIONS.get(section, set())
-    if section == "":
-        allowed = allowed | set(_EXTENSIONS)
+    allowed = _SCHEMA[section]
     for key in table:
         if key not in allowed:
             where = f"{section}.{key}" if section else key
             raise reader.error(where, f"unknown key; allowed keys here: {sorted(allowed)}")
 
 
+def _section(reader: _Reader, name: str) -> dict:
+    """The table ``[name]`` (empty if absent), its keys checked."""
+    table = reader.table(name)
+    _check_keys(reader, table, name)
+    return table
+
+
+def _parse_material(r: _Reader) -> tuple[Material, str]:
+    mat_t, tis_t = _section(r, "material"), _section(r, "tissue")
+    d = Material()
+    material = Material(
+        stiffness=r.number(mat_t, "material", "stiffness", d.stiffness, low=0, high=1e9),
+        damping=r.number(mat_t, "material", "damping", d.damping, low=0, high=1e9),
+        youngs_modulus=r.number(mat_t, "material", "youngs_modulus", d.youngs_modulus, low=0, high=1e12),
+        residual_strain=r.number(mat_t, "material", "residual_strain", d.residual_strain, low=0, high=0.99),
+        thickness=r.number(tis_t, "tissue", "thickness", d.thickness, low=0, high=1.0, low_open=True),
+        density=r.number(tis_t, "tissue", "density", d.density, low=0, high=1e5, low_open=True),
+    )
+    model = r.choice(mat_t, "material", "stiffness_model", "constant", set(STIFFNESS_MODELS))
+    return material, model
+
+
+def _parse_patch(r: _Reader, tis_t: dict) -> dict:
+    size = r.vector(tis_t.get("size", [0.10, 0.06]), "tissue.size", 2)
+    if np.any(size <= 0) or np.any(size > 100):
+        raise r.error("tissue.size", f"must be two lengths in (0, 100] m, got {size.tolist()}")
+    spacing = r.number(tis_t, "tissue", "spacing", 2e-3, low=0, low_open=True, high=float(min(size)))
+    if np.prod(size / spacing) > 5e6:
+        raise r.error("tissue.spacing", f"gives more than 5e6 nodes for size {size.tolist()}; "
+                                        "allowed: size[0]*size[1]/spacing^2 <= 5e6")
+    return {"size": (float(size[0]), float(size[1])), "spacing": spacing}
+
+
+def _parse_mesh_file(r: _Reader, tis_t: dict) -> dict:
+    raw = tis_t.get("path")
+    if not isinstance(raw, str) or not raw:
+        raise r.error("tissue.path", "is required for kind = 'mesh' (an OBJ, STL or PLY file)")
+    mesh_path = Path(raw)
+    if not mesh_path.is_absolute() and r.path is not None:
+        mesh_path = Path(r.path).parent / mesh_path
+    if not mesh_path.is_file():
+        raise r.error("tissue.path", f"file not found: {mesh_path}")
+    if mesh_path.suffix.lower() not in (".obj", ".stl", ".ply"):
+        raise r.error("tissue.path", f"must be an .obj, .stl or .ply file, got {mesh_path.name}")
+    return {"path": mesh_path, "scale": r.number(tis_t, "tissue", "scale", 1.0, low=0, low_open=True)}
+
+
+def _parse_pinned(r: _Reader, pinned) -> str | tuple:
+    if isinstance(pinned, dict):
+        if set(pinned) == {"box"}:
+            box = pinned["box"]
+            if not isinstance(box, list) or len(box) != 2:
+                raise r.error("tissue.pinned.box", "must be [[x0, y0, z0], [x1, y1, z1]] in m")
+            lo = r.vector(box[0], "tissue.pinned.box[0]")
+            hi = r.vector(box[1], "tissue.pinned.box[1]")
+            if np.any(lo > hi):
+                raise r.error("tissue.pinned.box", "needs lower corner <= upper corner")
+            return ("box", lo, hi)
+        if set(pinned) == {"indices"}:
+            idx = pinned["indices"]
+            if not isinstance(idx, list) or any(isinstance(i, bool) or not isinstance(i, int) for i in idx):
+                raise r.error("tissue.pinned.indices", "must be a list of node indices")
+            return ("indices", tuple(idx))
+        raise r.error("tissue.pinned", "a table must be {box = [[..], [..]]} or {indices = [..]}")
+    if pinned not in ("border", "none"):
+        raise r.error("tissue.pinned",
+                      f"must be 'border', 'none', {{box = [[x0,y0,z0],[x1,y1,z1]]}} or "
+                      f"{{indices = [...]}}, got {pinned!r}")
+    return pinned
+
+
+def _parse_tissue(r: _Reader) -> TissueSection:
+    tis_t = _section(r, "tissue")
+    kind = r.choice(tis_t, "tissue", "kind", "patch", {"patch", "mesh"})
+    where = _parse_patch(r, tis_t) if kind == "patch" else _parse_mesh_file(r, tis_t)
+    uniform_mass = None
+    if "uniform_mass" in tis_t:
+        uniform_mass = r.number(tis_t, "tissue", "uniform_mass", low=0, low_open=True)
+    return TissueSection(kind=kind, uniform_mass=uniform_mass,
+                         pinned=_parse_pinned(r, tis_t.get("pinned", "border")), **where)
+
+
+def _parse_physics(r: _Reader) -> PhysicsSection:
+    phys_t = _section(r, "physics")
+    gravity_on = phys_t.get("gravity", [0.0, 0.0, -9.81])
+    gravity = None
+    if gravity_on is not False:
+        gravity = r.vector(gravity_on, "physics.gravity")
+        if np.linalg.norm(gravity) > 1e4:
+            raise r.error("physics.gravity", "magnitude must be <= 1e4 m/s^2")
+    return PhysicsSection(
+        gravity=gravity,
+        residual_stress=r.boolean(phys_t, "physics", "residual_stress", True),
+        collision=r.boolean(phys_t, "physics", "collision", True),
+        cutting=r.boolean(phys_t, "physics", "cutting", False),
+    )
+
+
+def _parse_solver(r: _Reader, fps: float) -> SolverSection:
+    sol_t = _section(r, "solver")
+    integrator = r.choice(sol_t, "solver", "integrator", "semi_implicit", set(INTEGRATORS))
+    dt = sol_t.get("dt", 1e-3)
+    if dt != "auto":
+        dt = r.number(sol_t, "solver", "dt", 1e-3, low=0, high=1.0 / fps, low_open=True)
+    substeps = sol_t.get("substeps", "auto")
+    if substeps != "auto":
+        substeps = r.number(sol_t, "solver", "substeps", low=1, high=1e6, integer=True)
+    safety = r.number(sol_t, "solver", "safety", 0.5, low=0, high=1.0, low_open=True)
+    return SolverSection(integrator=integrator, dt=dt, substeps=substeps, safety=safety)
+
+
+def _parse_cutting(r: _Reader, duration: float) -> CutSettings:
+    cut_t = _section(r, "cutting")
+    given = {}
+    for key in ("sweep_radius", "spacing", "tolerance", "lip_offset"):
+        if key in cut_t:
+            given[key] = r.number(cut_t, "cutting", key, low=0, high=1.0, low_open=True)
+    if "interval" in cut_t:
+        given["interval"] = r.number(cut_t, "cutting", "interval", low=0, high=duration)
+    if "force_threshold" in cut_t:
+        given["force_threshold"] = r.number(cut_t, "cutting", "force_threshold", low=0, high=1e6)
+    return CutSettings(**given)
+
+
+def _parse_keyframes(r: _Reader, keys) -> list[Keyframe]:
+    if not isinstance(keys, list) or not keys:
+        raise r.error("tool.keyframes", "needs at least one [[tool.keyframes]] with t, p0, p1")
+    frames = []
+    for n, kf in enumerate(keys):
+        where = f"tool.keyframes[{n}]"
+        if not isinstance(kf, dict) or set(kf) != {"t", "p0", "p1"}:
+            raise r.error(where, "must have exactly the keys t [s], p0 [m] (tip), p1 [m]")
+        t = r.number(kf, where, "t", low=0, high=1e6)
+        if frames and t <= frames[-1].t:
+            raise r.error(f"{where}.t", "keyframe times must be strictly increasing")
+        frames.append(Keyframe(t, r.vector(kf["p0"], f"{where}.p0"), r.vector(kf["p1"], f"{where}.p1")))
+    return frames
+
+
+def _parse_tool(r: _Reader) -> ToolSection | None:
+    if "tool" not in r.data:
+        return None
+    tool_t = _section(r, "tool")
+    radius = r.number(tool_t, "tool", "radius", low=0, high=1.0)
+    frames = _parse_keyframes(r, tool_t.get("keyframes"))
+    lengths = [float(np.linalg.norm(f.p1 - f.p0)) for f in frames]
+    length = tool_t.get("length")
+    if length is None:
+        return ToolSection(radius, max(lengths), tuple(frames))
+    length = r.number(tool_t, "tool", "length", low=0, low_open=True, high=10.0)
+    for n, L in enumerate(lengths):
+        if abs(L - length) > 1e-6 * max(1.0, length):
+            raise r.error(f"tool.keyframes[{n}]",
+                          f"|p1 - p0| = {L:.6g} m differs from tool.length = {length} m (the tool is rigid)")
+    return ToolSection(radius, length, tuple(frames))
+
+
 def parse_scene(data: dict, path=None) -> Scene:
-    """Validate a scene dictionary (as loaded from TOML) into a Scene."""
+    """Validate a scene dictionary (as loaded from TOML) into a Scene.
+
+    Args:
+        data: The TOML content.
+        path: The scene file (names it in errors; mesh paths are relative to it).
+
+    Raises:
+        SceneError: naming the file, the key and the allowed range.
+    """
     r = _Reader(data, path)
     _check_keys(r, data, "")
     name = data.get("name", Path(path).stem if path else "scene")
@@ -221,150 +470,16 @@ def parse_scene(data: dict, path=None) -> Scene:
     device = data.get("device", "cpu")
     if not isinstance(device, str) or not (device == "cpu" or device.startswith("cuda")):
         raise r.error("device", f"must be 'cpu', 'cuda' or 'cuda:N', got {device!r}")
-
-    mat_t = r.table("material")
-    _check_keys(r, mat_t, "material")
-    tis_t = r.table("tissue")
-    _check_keys(r, tis_t, "tissue")
-    defaults = Material()
-    material = Material(
-        stiffness=r.number(mat_t, "material", "stiffness", defaults.stiffness, low=0, high=1e9),
-        damping=r.number(mat_t, "material", "damping", defaults.damping, low=0, high=1e9),
-        youngs_modulus=r.number(mat_t, "material", "youngs_modulus", defaults.youngs_modulus,
-                                low=0, high=1e12),
-        residual_strain=r.number(mat_t, "material", "residual_strain", defaults.residual_strain,
-                                 low=0, high=0.99),
-        thickness=r.number(tis_t, "tissue", "thickness", defaults.thickness, low=0, high=1.0,
-                           low_open=True),
-        density=r.number(tis_t, "tissue", "density", defaults.density, low=0, high=1e5,
-                         low_open=True),
-    )
-
-    stiffness_model = r.choice(mat_t, "material", "stiffness_model", "constant",
-                               set(STIFFNESS_MODELS))
-    kind = r.choice(tis_t, "tissue", "kind", "patch", {"patch", "mesh"})
-    tissue: dict[str, Any] = {"kind": kind, "scale": 1.0, "uniform_mass": None}
-    if kind == "patch":
-        size = r.vector(tis_t.get("size", [0.10, 0.06]), "tissue.size", 2)
-        if np.any(size <= 0) or np.any(size > 100):
-            raise r.error("tissue.size", f"must be two lengths in (0, 100] m, got {size.tolist()}")
-        tissue["size"] = tuple(size)
-        tissue["spacing"] = r.number(tis_t, "tissue", "spacing", 2e-3, low=0, low_open=True,
-                                     high=float(min(size)))
-        if np.prod(size / tissue["spacing"]) > 5e6:
-            raise r.error("tissue.spacing", f"gives more than 5e6 nodes for size {size.tolist()}; "
-                                            "allowed: size[0]*size[1]/spacing^2 <= 5e6")
-    else:
-        raw = tis_t.get("path")
-        if not isinstance(raw, str) or not raw:
-            raise r.error("tissue.path", "is required for kind = 'mesh' (an OBJ, STL or PLY file)")
-        mesh_path = Path(raw)
-        if not mesh_path.is_absolute() and path is not None:
-            mesh_path = Path(path).parent / mesh_path
-        if not mesh_path.is_file():
-            raise r.error("tissue.path", f"file not found: {mesh_path}")
-        if mesh_path.suffix.lower() not in (".obj", ".stl", ".ply"):
-            raise r.error("tissue.path", f"must be an .obj, .stl or .ply file, got {mesh_path.name}")
-        tissue["path"] = mesh_path
-        tissue["scale"] = r.number(tis_t, "tissue", "scale", 1.0, low=0, low_open=True)
-    if "uniform_mass" in tis_t:
-        tissue["uniform_mass"] = r.number(tis_t, "tissue", "uniform_mass", low=0, low_open=True)
-    pinned = tis_t.get("pinned", "border")
-    if isinstance(pinned, dict):
-        if set(pinned) == {"box"}:
-            box = pinned["box"]
-            if not isinstance(box, list) or len(box) != 2:
-                raise r.error("tissue.pinned.box", "must be [[x0, y0, z0], [x1, y1, z1]] in m")
-            lo = r.vector(box[0], "tissue.pinned.box[0]")
-            hi = r.vector(box[1], "tissue.pinned.box[1]")
-            if np.any(lo > hi):
-                raise r.error("tissue.pinned.box", "needs lower corner <= upper corner")
-            pinned = {"box": (lo, hi)}
-        elif set(pinned) == {"indices"}:
-            idx = pinned["indices"]
-            if not isinstance(idx, list) or any(isinstance(i, bool) or not isinstance(i, int) for i in idx):
-                raise r.error("tissue.pinned.indices", "must be a list of node indices")
-        else:
-            raise r.error("tissue.pinned", "a table must be {box = [[..], [..]]} or {indices = [..]}")
-    elif pinned not in ("border", "none"):
-        raise r.error("tissue.pinned",
-                      f"must be 'border', 'none', {{box = [[x0,y0,z0],[x1,y1,z1]]}} or "
-                      f"{{indices = [...]}}, got {pinned!r}")
-    tissue["pinned"] = pinned
-
-    phys_t = r.table("physics")
-    _check_keys(r, phys_t, "physics")
-    gravity_on = phys_t.get("gravity", [0.0, 0.0, -9.81])
-    if gravity_on is False:
-        gravity = None
-    else:
-        gravity = r.vector(gravity_on, "physics.gravity")
-        if np.linalg.norm(gravity) > 1e4:
-            raise r.error("physics.gravity", "magnitude must be <= 1e4 m/s^2")
-    physics = {
-        "gravity": gravity,
-        "residual_stress": r.boolean(phys_t, "physics", "residual_stress", True),
-        "collision": r.boolean(phys_t, "physics", "collision", True),
-        "cutting": r.boolean(phys_t, "physics", "cutting", False),
-    }
-
-    sol_t = r.table("solver")
-    _check_keys(r, sol_t, "solver")
-    solver = {"integrator": r.choice(sol_t, "solver", "integrator", "semi_implicit",
-                                     set(INTEGRATORS))}
-    dt = sol_t.get("dt", 1e-3)
-    solver["dt"] = "auto" if dt == "auto" else r.number(sol_t, "solver", "dt", 1e-3, low=0,
-                                                        high=1.0 / fps, low_open=True)
-    sub = sol_t.get("substeps", "auto")
-    solver["substeps"] = "auto" if sub == "auto" else r.number(
-        sol_t, "solver", "substeps", low=1, high=1e6, integer=True)
-    solver["safety"] = r.number(sol_t, "solver", "safety", 0.5, low=0, high=1.0, low_open=True)
-
-    cut_t = r.table("cutting")
-    _check_keys(r, cut_t, "cutting")
-    cutting = {}
-    for key in ("sweep_radius", "spacing", "tolerance", "lip_offset"):
-        if key in cut_t:
-            cutting[key] = r.number(cut_t, "cutting", key, low=0, high=1.0, low_open=True)
-    if "interval" in cut_t:
-        cutting["interval"] = r.number(cut_t, "cutting", "interval", low=0, high=duration)
-    if "force_threshold" in cut_t:
-        cutting["force_threshold"] = r.number(cut_t, "cutting", "force_threshold", low=0, high=1e6)
-    if physics["cutting"] and "tool" not in data:
+    material, stiffness_model = _parse_material(r)
+    tissue = _parse_tissue(r)
+    physics = _parse_physics(r)
+    solver = _parse_solver(r, fps)
+    cutting = _parse_cutting(r, duration)
+    if physics.cutting and "tool" not in data:
         raise r.error("physics.cutting", "needs a [tool] to cut with")
-
-    tool = None
-    if "tool" in data:
-        tool_t = r.table("tool")
-        _check_keys(r, tool_t, "tool")
-        radius = r.number(tool_t, "tool", "radius", low=0, high=1.0)
-        keys = tool_t.get("keyframes")
-        if not isinstance(keys, list) or not keys:
-            raise r.error("tool.keyframes", "needs at least one [[tool.keyframes]] with t, p0, p1")
-        frames = []
-        for n, kf in enumerate(keys):
-            where = f"tool.keyframes[{n}]"
-            if not isinstance(kf, dict) or set(kf) != {"t", "p0", "p1"}:
-                raise r.error(where, "must have exactly the keys t [s], p0 [m] (tip), p1 [m]")
-            t = r.number(kf, where, "t", low=0, high=1e6)
-            frames.append({"t": t, "p0": r.vector(kf["p0"], f"{where}.p0"),
-                           "p1": r.vector(kf["p1"], f"{where}.p1")})
-            if len(frames) > 1 and t <= frames[-2]["t"]:
-                raise r.error(f"{where}.t", "keyframe times must be strictly increasing")
-        lengths = [float(np.linalg.norm(f["p1"] - f["p0"])) for f in frames]
-        length = tool_t.get("length")
-        if length is not None:
-            length = r.number(tool_t, "tool", "length", low=0, low_open=True, high=10.0)
-            for n, L in enumerate(lengths):
-                if abs(L - length) > 1e-6 * max(1.0, length):
-                    raise r.error(f"tool.keyframes[{n}]",
-                                  f"|p1 - p0| = {L:.6g} m differs from tool.length = {length} m "
-                                  "(the tool is rigid)")
-        tool = {"radius": radius, "length": length if length is not None else max(lengths),
-                "keyframes": frames}
     return Scene(name=name, duration=duration, fps=fps, device=device, material=material,
-                 tissue=tissue, physics=physics, solver=solver, tool=tool, cutting=cutting,
-                 data=data, path=Path(path) if path else None, stiffness_model=stiffness_model)
+                 stiffness_model=stiffness_model, tissue=tissue, physics=physics, solver=solver,
+                 tool=_parse_tool(r), cutting=cutting, data=data, path=Path(path) if path else None)
 
 
 def apply_overrides(data: dict, overrides: list[str], path=None) -> dict:
