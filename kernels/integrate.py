@@ -15,11 +15,12 @@ them, as separately compiled variants (``variants.specialised``).
 import warp as wp
 
 from .collision import push_out_near_tool
-from .variants import specialised
+from .variants import specialised, variant_family
 
 wp.set_module_options({"enable_backward": False})
 
 
+@variant_family("integrate")
 def _make(gravity: bool, collision: bool):
     def integrate_semi_implicit(
         positions_in: wp.array(dtype=wp.vec3),

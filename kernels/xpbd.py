@@ -24,7 +24,7 @@ import warp as wp
 
 from .collision import push_out_near_tool
 from .springs import SPRING_MIN_LENGTH
-from .variants import specialised
+from .variants import specialised, variant_family
 
 wp.set_module_options({"enable_backward": False})
 
@@ -96,6 +96,7 @@ def distance_constraints(
         s += 1
 
 
+@variant_family("xpbd_predict")
 def _make_predict(gravity: bool):
     def xpbd_predict(
         positions_in: wp.array(dtype=wp.vec3),
@@ -129,6 +130,7 @@ def _make_predict(gravity: bool):
     return xpbd_predict
 
 
+@variant_family("xpbd_finish")
 def _make_finish(collision: bool):
     def xpbd_finish(
         positions_in: wp.array(dtype=wp.vec3),

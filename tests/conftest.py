@@ -1,4 +1,11 @@
-"""Shared test set-up: Warp on the CPU, quietly; small helpers for building models."""
+"""Shared test set-up: Warp on the test device, quietly; small helpers for building models.
+
+The device is ``cpu`` unless ``--device`` (or the environment variable ``WARP_CUT_TEST_DEVICE``)
+names another, e.g. ``cuda:0``; tests import it as ``DEVICE``. A test that only makes sense on
+one kind of device is marked ``@pytest.mark.cpu_only(reason=...)`` and skipped elsewhere.
+"""
+
+import os
 
 import numpy as np
 import pytest
@@ -8,7 +15,14 @@ if hasattr(wp, "LOG_WARNING"):
     wp.config.log_level = wp.LOG_WARNING
 wp.init()
 
-DEVICE = "cpu"
+DEVICE = os.environ.get("WARP_CUT_TEST_DEVICE", "cpu")
+"""The Warp device the tests run on (set by ``pytest_configure`` before tests import it)."""
+
+
+def pytest_addoption(parser):
+    parser.addoption("--device", default=None,
+                     help="Warp device for the warp_cut tests: cpu (default), cuda or cuda:N "
+                          "(or set WARP_CUT_TEST_DEVICE)")
 
 
 def chain_model(n_free, *, mass=0.01, stiffness=10.0, spacing=0.1, damping=0.0, axis=(0, 0, -1)):
@@ -28,7 +42,36 @@ def rng():
 
 
 def pytest_configure(config):
+    global DEVICE
     config.addinivalue_line("markers", "invalid_usd: the test writes broken USD files on purpose")
+    config.addinivalue_line("markers", "cpu_only(reason): the test only makes sense on the CPU")
+    DEVICE = config.getoption("--device") or DEVICE
+    try:
+        device = wp.get_device(DEVICE)
+    except (ValueError, RuntimeError) as error:
+        raise pytest.UsageError(f"--device / WARP_CUT_TEST_DEVICE: {DEVICE!r} is not a device "
+                                f"here ({error}); devices: {wp.get_devices()}") from error
+    DEVICE = device.alias
+    wp.set_device(DEVICE)  # launches that name no device run there too
+
+
+def pytest_report_header(config):
+    return f"warp_cut test device: {DEVICE} (Warp {wp.__version__})"
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    if config.get_verbosity() < 0:  # -q hides the header; say it once at the end
+        terminalreporter.write_line(pytest_report_header(config))
+
+
+def pytest_collection_modifyitems(config, items):
+    if wp.get_device(DEVICE).is_cpu:
+        return
+    for item in items:
+        marker = item.get_closest_marker("cpu_only")
+        if marker is not None:
+            reason = marker.kwargs.get("reason") or (marker.args[0] if marker.args else "")
+            item.add_marker(pytest.mark.skip(reason=f"CPU only on {DEVICE}: {reason}"))
 
 
 @pytest.fixture(autouse=True)

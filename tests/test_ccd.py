@@ -10,6 +10,8 @@ from warp_cut import Material, Simulator, TissueModel, Tool, ToolPath, cylinder_
 from warp_cut.kernels.ccd import quartic_roots, vec5d
 from warp_cut.sim.ccd import swept_first_contact
 
+from conftest import DEVICE
+
 
 # ------------------------------------------------------------------ closed forms
 @pytest.mark.parametrize("y", [0.0, 0.0003, -0.0006, 0.0009])
@@ -176,7 +178,7 @@ def test_simulator_reports_exact_first_contact_on_a_patch():
     r, h0, s = 0.001, 0.00431, 0.02
     path = ToolPath([0.0, 1.0], [[-0.004, 0, h0], [-0.004, 0, h0 - s]],
                     [[0.004, 0, h0], [0.004, 0, h0 - s]], r)
-    sim = Simulator(model, dt=1e-3, gravity=None, residual_stress=False)
+    sim = Simulator(model, dt=1e-3, gravity=None, residual_stress=False, device=DEVICE)
     sim.step(200, tool=path)
     exact = (h0 - r) / s
     assert sim.first_contact_time_exact == pytest.approx(exact, abs=1e-9)
@@ -195,7 +197,7 @@ def test_simulator_catches_a_tool_the_per_step_test_misses():
                     [[0.03, -0.012, -0.0002], [0.03, 0.028, -0.0002]], r)
     path_start_clear = Tool(path.p0[0], path.p1[0], r)
     assert not cylinder_contacts(model.points, path_start_clear.p0, path_start_clear.p1, r).any()
-    sim = Simulator(model, dt=1e-3, gravity=None, residual_stress=False)
+    sim = Simulator(model, dt=1e-3, gravity=None, residual_stress=False, device=DEVICE)
     sim.step(3, tool=path)
     assert sim.first_contact_time is None
     assert sim.first_contact_time_exact is not None and 0 < sim.first_contact_time_exact < 1e-3

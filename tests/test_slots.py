@@ -7,6 +7,8 @@ from warp_cut import TissueModel
 from warp_cut.sim.device_model import DeviceModel
 from warp_cut.sim.slots import SlotTable
 
+from conftest import DEVICE
+
 
 def test_append_kill_and_dirty_slots():
     t = SlotTable({"pairs": np.array([[0, 1], [1, 2]]), "w": np.array([1.0, 2.0])}, key="pairs")
@@ -27,7 +29,7 @@ def test_append_kill_and_dirty_slots():
 
 def test_device_mirror_follows_edits_and_growth():
     model = TissueModel.from_patch((0.01, 0.01), 0.002)
-    dev = DeviceModel(model)
+    dev = DeviceModel(model, DEVICE)
     table = model.spring_table
     table.kill([0])
     table.set("stiffness", [1], 7.0)
