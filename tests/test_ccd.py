@@ -5,12 +5,11 @@ import math
 import numpy as np
 import pytest
 import warp as wp
+from conftest import DEVICE
 
 from warp_cut import Material, Simulator, TissueModel, Tool, ToolPath, cylinder_contacts
 from warp_cut.kernels.ccd import quartic_roots, vec5d
 from warp_cut.sim.ccd import swept_first_contact
-
-from conftest import DEVICE
 
 
 # ------------------------------------------------------------------ closed forms

@@ -2,12 +2,11 @@
 
 import numpy as np
 import pytest
+from conftest import DEVICE
 
 from warp_cut import TissueModel
 from warp_cut.sim.device_model import DeviceModel
 from warp_cut.sim.slots import SlotTable
-
-from conftest import DEVICE
 
 
 def test_append_kill_and_dirty_slots():
