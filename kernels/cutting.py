@@ -107,3 +107,23 @@ def capsule_spring_hits_among(
         return
     if segment_segment_distance(positions[i], positions[j], a, b) < radius:
         append_hit(hits, hit_count, s)
+
+
+@wp.kernel
+def segment_node_hits(
+    positions: wp.array(dtype=wp.vec3),
+    node_flags: wp.array(dtype=wp.int32),
+    a: wp.vec3,
+    b: wp.vec3,
+    radius: float,
+    hits: wp.array(dtype=wp.int32),
+    hit_count: wp.array(dtype=wp.int32),
+):
+    """One thread per node slot: active nodes within ``radius`` [m] of segment a-b are
+    appended to ``hits`` (where the cut looks for the skin around the tool and for what the
+    swept capsule may touch)."""
+    i = wp.tid()
+    if (node_flags[i] & 1) == 0:
+        return
+    if point_segment_distance(positions[i], a, b) < radius:
+        append_hit(hits, hit_count, i)

@@ -248,6 +248,7 @@ class Scene:
             model.masses[:] = t.uniform_mass
         self._pin(model)
         if self.stiffness_model == "material":
+            model.stiffness_model = "material"
             model.stiffness = material_stiffness(
                 model.points, model.triangles, model.springs, self.material.youngs_modulus,
                 self.material.thickness, fallback=self.material.stiffness)

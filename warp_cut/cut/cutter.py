@@ -1,9 +1,10 @@
 """Cutter: the three-stage cut (paper section 2.3) driven by the tool while the simulation runs.
 
-Once the tool is in contact (and, optionally, pushes harder than a threshold), every
-``interval`` seconds a cut event runs:
+Every ``interval`` seconds while the tool's axis crosses the skin (and, optionally, the tool
+pushes harder than a threshold) a cut event runs:
 
-* the contact point is where the tool axis crosses the tissue's surface plane at the cut;
+* the contact point is where the axis crosses the current, deformed skin around it, with the
+  skin's normal there (``warp_cut.cut.surface``): the cut follows curved and sagging skin;
 * Stage 1 - the tool's cross-section circle sweeps a capsule from the previous contact point to
   this one; the nodes inside are deleted with their springs, the springs passing through it are
   deleted (each whose two nodes survive becomes a residual-stress link), and the triangles
@@ -12,7 +13,12 @@ Once the tool is in contact (and, optionally, pushes harder than a threshold), e
   the tool's contact point;
 * Stage 3 - the grey area is re-meshed by shortest-distance node matching (``warp_cut.cut.remesh``).
 
-The incision ends when the tool leaves the surface; the next contact starts a new one.
+The incision starts where the axis first crossed the skin (found among the tool's poses since
+the previous event, so neither a thin tool slipping between nodes nor the event interval
+delays it) and ends when the tool leaves the skin - lifted out, or moved off the tissue -
+and only then: one stroke is one incision. The slit's end node moves on with the tool (one
+node, not one per event); residual-stress links whose node a later event deletes are carried
+to the node that takes its place on the same side.
 """
 
 from __future__ import annotations
@@ -27,15 +33,17 @@ import warp as wp
 from ..errors import InputError
 from ..kernels import cutting as cut_kernels
 from ..kernels import scatter
-from ..kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
+from ..kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among, segment_node_hits
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
 from ..sim.model import TissueModel
 from ..sim.stability import RowSums, StepLimit
 from ..sim.state import State
 from .classes import NodeClass
-from .incision import Incision, polyline_distance
+from .incision import Incision
+from .measures import coverage, incision_width, lip_deviation
 from .remesh import fill_hole
+from .surface import Crossing, locate_crossing
 from .topology import NodePositions, TopologyEditor
 
 __all__ = ["CutSettings", "Cutter", "CutHost", "STAGES"]
@@ -120,6 +128,47 @@ class CutHost(Protocol):
         """Mirror the model's latest edit on the device and update the stable step."""
 
 
+def _crosses(x: np.ndarray, pairs: np.ndarray, a, b, normal) -> np.ndarray:
+    """Mask (s,) of node pairs (s, 2) on either side of the cut line a-b in the surface whose
+    outward normal is ``normal`` (a pair on one side is not separated by the cut)."""
+    if not len(pairs):
+        return np.zeros(0, dtype=bool)
+    lateral = (x[pairs.reshape(-1)] - a) @ np.cross(normal, np.asarray(b, np.float64) - a)
+    return lateral[0::2] * lateral[1::2] < 0.0
+
+
+class _Places:
+    """Where a residual link's node goes when the cut takes it: candidates by side of the
+    incision, lips first."""
+
+    def __init__(self, inc: Incision, positions, lips: list[int], others: list[int], radius: float):
+        self.inc, self.radius = inc, radius
+        self.lip_set = set(lips)
+        self.nodes = np.array(lips + others, dtype=np.int64)
+        self.is_lip = np.arange(len(self.nodes)) < len(lips)
+        self.x = positions[self.nodes] if len(self.nodes) else np.zeros((0, 3))
+        self.sides = inc.project(self.x)[1] if len(self.nodes) else np.zeros(0, np.int64)
+        self.load = {}
+
+    def taking(self, point, exclude=(), lips_only: bool = False) -> int:
+        """The node that takes the place of one at ``point`` [m]: on its side, within the
+        radius, lips before other nodes, the least loaded, the nearest; -1 if none."""
+        if not len(self.nodes):
+            return -1
+        side = self.inc.project(np.asarray(point)[None])[1][0]
+        dist = np.linalg.norm(self.x - point, axis=1)
+        ok = (self.sides == side) & (dist <= self.radius) & ~np.isin(self.nodes, list(exclude))
+        for group in (ok & self.is_lip, ok & ~self.is_lip if not lips_only else ok & False):
+            k = np.flatnonzero(group)
+            if len(k):
+                load = np.array([self.load.get(int(self.nodes[i]), 0) for i in k])
+                k = k[load == load.min()]
+                best = int(self.nodes[k[np.argmin(dist[k])]])
+                self.load[best] = self.load.get(best, 0) + 1
+                return best
+        return -1
+
+
 class Cutter:
     """Cuts a TissueModel while a simulation of it runs.
 
@@ -144,18 +193,22 @@ class Cutter:
         self.row_sums = RowSums(model)
         lengths = model.rest_lengths
         self.spacing = self.settings.spacing or float(np.median(lengths))
+        self.edge_reach = 1.5 * float(lengths.max()) if len(lengths) else self.spacing
+        """How far from the swept capsule a spring may start and still cross it [m]."""
         self.incisions: list[Incision] = []
         self.current: Incision | None = None
         self._last_event = -np.inf
+        self._poses: list[Tool] = []
+        """Tool poses of the steps since the last cut event (where the blade entered)."""
         self._hits = _Hits(device)
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
-                       "lip_nodes": 0, "new_springs": 0, "removed_fragments": 0, "events": 0}
+                       "carried_links": 0, "lost_links": 0, "lip_nodes": 0, "lip_nodes_removed": 0,
+                       "new_springs": 0, "removed_fragments": 0, "events": 0}
         self.new_triangles: set[int] = set()
         self.contact_path: list[np.ndarray] = []
         self.unfilled_holes = 0
         # compile the cut's kernels now, so that no cut event pays for it
-
         for module in (cut_kernels, scatter):
             wp.load_module(module, device=device)
 
@@ -164,31 +217,90 @@ class Cutter:
         """Advance the cut after a simulation step of ``sim``."""
         tool = sim.tool_pose if sim.collision else None
         if tool is None or tool.radius <= 0:
+            self._poses.clear()
             self.end_incision(sim)
             return
+        self._poses.append(tool)
         if sim.time - self._last_event < self.settings.interval - 1e-12:
             return
         self._last_event = sim.time
+        poses, self._poses = self._poses, []
         if self.current is None:
-            pushing = np.linalg.norm(sim.tool_force) >= self.settings.force_threshold
-            if sim.contact_count > 0 and pushing and sim.contact_centroid is not None:
-                normal = self._surface_normal(sim, sim.contact_centroid)
-                point = self._axis_crossing(tool, sim.contact_centroid, normal)
-                if point is not None:
-                    self.start_incision(sim, point, normal, self.settings.sweep_radius or tool.radius)
+            self._start_where_the_blade_entered(sim, poses)
             return
-        point = self._axis_crossing(tool, self.current.path[0], self.current.normal)
-        if point is None:
-            self.end_incision(sim)  # the tool left the surface: this incision is complete
+        crossing = self.crossing(sim, tool)
+        if crossing is None:
+            self.end_incision(sim)  # the tool has left the skin: this incision is complete
             return
-        self.extend_incision(sim, point)
+        self.extend_incision(sim, crossing.point, crossing.normal)
+
+    def crossing(self, sim: CutHost, tool: Tool) -> Crossing | None:
+        """Where the tool's axis crosses the skin now (None: the tool is out of the skin)."""
+        x = self._positions_view(sim)
+        nodes, corners = self._skin_near(sim, tool, x)
+        return self._locate(tool, x[nodes], self.model.points[nodes], corners)
+
+    def _start_where_the_blade_entered(self, sim: CutHost, poses: list[Tool]) -> None:
+        """Start an incision if the axis crosses the skin (and the tool pushes hard enough),
+        at the first of ``poses`` whose axis crossed it, then cut on to where it is now."""
+        tool = poses[-1]
+        if np.linalg.norm(sim.tool_force) < self.settings.force_threshold:
+            return
+        x = self._positions_view(sim)
+        nodes, corners = self._skin_near(sim, tool, x)
+        rest = self.model.points[nodes]
+        now = self._locate(tool, x[nodes], rest, corners)
+        if now is None:
+            return
+        entry = now
+        if self.settings.force_threshold == 0.0:
+            entry = self._first_crossing(poses, x[nodes], rest, corners) or now
+        self.start_incision(sim, entry.point, entry.normal, self.settings.sweep_radius or tool.radius)
+        self.extend_incision(sim, now.point, now.normal)
+
+    def _first_crossing(self, poses: list[Tool], x: np.ndarray, rest: np.ndarray,
+                        corners: np.ndarray) -> Crossing | None:
+        """The crossing of the earliest pose whose axis crosses the skin (binary search: the
+        tool goes in once between two events)."""
+        lo, hi, found = 0, len(poses) - 1, None
+        while lo <= hi:
+            mid = (lo + hi) // 2
+            hit = self._locate(poses[mid], x, rest, corners)
+            if hit is None:
+                lo = mid + 1
+            else:
+                found, hi = hit, mid - 1
+        return found
+
+    def _locate(self, tool: Tool, x: np.ndarray, rest: np.ndarray, corners: np.ndarray) -> Crossing | None:
+        """The crossing of ``tool``'s axis with the skin whose nodes near it are at ``x`` (rest
+        positions ``rest``), both (k, 3) [m]; the nodes within 1.5 tool radii of the axis are
+        left out of the fit (the tool pushes them)."""
+        return locate_crossing(tool.p0, tool.p1, x, corners, reach=tool.radius + 1.5 * self.spacing,
+                               fit_radius=tool.radius + 1.5 * self.spacing, exclude=1.5 * tool.radius,
+                               rest_positions=rest)
+
+    def _skin_near(self, sim: CutHost, tool: Tool, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(live nodes within 1.5 tool radii + 3 spacings of its axis (k,), corner positions
+        [m] of the live triangles at them (m, 3, 3))."""
+        nodes = self._nodes_near(sim, tool.p0, tool.p1, 1.5 * tool.radius + 3.0 * self.spacing)
+        corner_table = self.model.triangle_table.column("corners")
+        tris = sorted({t for v in nodes for t in self.editor.node_triangles[v]})
+        corners = x[corner_table[tris]].astype(np.float64) if tris else np.zeros((0, 3, 3))
+        return nodes, corners
+
+    def _nodes_near(self, sim: CutHost, a, b, radius: float) -> np.ndarray:
+        """Live nodes within ``radius`` [m] of segment a-b (one thread per node slot)."""
+        return self._hits.run(segment_node_hits, self.model.node_count, [
+            sim.state.positions, sim.device_model.node_flags, wp.vec3(*a), wp.vec3(*b), float(radius)])
 
     def start_incision(self, sim: CutHost, point, normal, sweep_radius: float) -> Incision:
-        """Begin a new incision at ``point`` [m] on the surface with unit ``normal``; the swept
-        circle has radius ``sweep_radius`` [m]. (``after_step`` calls this at first contact;
-        a haptic loop or a test may call it directly.)"""
+        """Begin a new incision at ``point`` [m] on the skin with unit outward ``normal``; the
+        swept circle has radius ``sweep_radius`` [m]. (``after_step`` calls this where the
+        blade entered; a haptic loop or a test may call it directly.)"""
         if not (np.isfinite(sweep_radius) and sweep_radius > 0):
             raise InputError(f"sweep radius must be > 0 m, got {sweep_radius}")
+        self.end_incision(sim)
         s = self.settings
         self.current = Incision(point, normal, spacing=self.spacing,
                                 lip_offset=s.lip_offset or 0.25 * sweep_radius,
@@ -204,108 +316,38 @@ class Cutter:
         self.current = None
         if inc is not None and inc.open_chains:
             self.editor.begin()
-            report, result, positions = self._stage3(sim, inc, None, defer_slivers=False)
+            report, result, positions = self._stage3(sim, inc, None, {}, defer_slivers=False)
             self._apply(sim, report, positions)
             self._count(report, result)
-
-    @staticmethod
-    def _axis_crossing(tool: Tool, origin, normal) -> np.ndarray | None:
-        """Where the tool axis crosses the plane (origin, normal), or None if it does not."""
-        s0 = float(np.dot(tool.p0 - origin, normal))
-        s1 = float(np.dot(tool.p1 - origin, normal))
-        if s0 * s1 > 0 or s0 == s1:
-            return None
-        return tool.p0 + (s0 / (s0 - s1)) * (tool.p1 - tool.p0)
-
-    def _surface_normal(self, sim: CutHost, point) -> np.ndarray:
-        """Mean unit normal of the triangles around the live node nearest ``point``."""
-        model = self.model
-        x = self._positions_view(sim)
-        live = np.flatnonzero(model.active)
-        node = int(live[np.argmin(np.linalg.norm(x[live] - point, axis=1))])
-        corners = model.triangle_table.column("corners")
-        normal = np.zeros(3)
-        for t in self.editor.node_triangles[node]:
-            p = x[corners[t]].astype(np.float64)
-            normal += np.cross(p[1] - p[0], p[2] - p[0])
-        n = np.linalg.norm(normal)
-        return normal / n if n > 0 else np.array([0.0, 0.0, 1.0])
-
-    def _index_array(self, idx) -> wp.array:
-        return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.device)
-
-    def _neighbourhood(self, sim: CutHost, a, b, radius) -> tuple[list[int], list[int]]:
-        """Candidate nodes and springs for the swept capsule a-b: the nodes within
-        radius + |b - a| + 3 spacings of a, found by walking the mesh outward from the
-        incision's anchor node, and the springs at them. The walk costs what the cut touches,
-        however large the tissue (the Stage 1 kernels then test only these)."""
-        inc, editor, model = self.current, self.editor, self.model
-        x = self._positions_view(sim)
-        reach = radius + float(np.linalg.norm(np.asarray(b) - a)) + 3.0 * self.spacing
-        anchor = inc.anchor
-        if anchor < 0 or not model.active[anchor]:
-            live = np.flatnonzero(model.active)  # once per incision, or after losing the anchor
-            anchor = int(live[np.argmin(np.linalg.norm(x[live] - a, axis=1))])
-        pairs = model.spring_table.column("pairs")
-        seen, frontier, nodes = {anchor}, [anchor], []
-        while frontier:
-            v = frontier.pop()
-            if np.linalg.norm(x[v] - a) > reach:
-                continue
-            nodes.append(v)
-            for slot in editor.node_springs[v]:
-                for u in pairs[slot]:
-                    u = int(u)
-                    if u not in seen:
-                        seen.add(u)
-                        frontier.append(u)
-        springs = sorted({slot for v in nodes for slot in editor.node_springs[v]})
-        return nodes, springs
 
     def _positions_view(self, sim: CutHost) -> np.ndarray:
         # zero-copy on the CPU; a copy from a GPU
         return sim.state.positions.numpy()[: self.model.node_count]
 
     # ----------------------------------------------------------------- one event
-    def extend_incision(self, sim: CutHost, point) -> None:
-        """One cut event: sweep from the incision's last contact point to ``point`` [m]
-        (Stages 1-3), then mirror the edit on the device."""
-
-        inc, editor = self.current, self.editor
+    def extend_incision(self, sim: CutHost, point, normal=None) -> None:
+        """One cut event: sweep from the incision's last contact point to ``point`` [m] on the
+        skin, whose unit outward normal there is ``normal`` (default: the last one) (Stages
+        1-3), then mirror the edit on the device."""
+        inc = self.current
         if inc is None:
             raise InputError("no incision in progress: call start_incision first")
         point = np.asarray(point, dtype=np.float64)
-        r = inc.sweep_radius
-        a = inc.path[-1]
-        if np.linalg.norm(point - a) < 0.1 * self.spacing:
+        if np.linalg.norm(point - inc.path[-1]) < 0.1 * self.spacing:
             return  # the tool has not moved enough to extend the incision
-        dm = sim.device_model
         t0 = time.perf_counter()
-        near_nodes, near_springs = self._neighbourhood(sim, a, point, r)
-        nodes = self._hits.run(capsule_node_hits_among, len(near_nodes), [
-            sim.state.positions, dm.node_flags, self._index_array(near_nodes),
-            wp.vec3(*a), wp.vec3(*point), float(r)])
-        springs = self._hits.run(capsule_spring_hits_among, len(near_springs), [
-            sim.state.positions, dm.spring_indices, self._index_array(near_springs),
-            wp.vec3(*a), wp.vec3(*point), float(r)])
-        editor.begin()
-        doomed = set(int(v) for v in nodes)
-        if inc.end_node >= 0:
-            doomed.add(inc.end_node)  # the slit's end moves on with the tool
-            inc.end_node = -1
-        own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
-        residual = [sl for sl in springs if not (set(self.model.spring_table.column("pairs")[sl]) & own_lips)]
-        no_residual = [sl for sl in springs if sl not in set(residual)]
-        editor.delete_springs(residual, residual=True, doomed_nodes=doomed)
-        editor.delete_springs(no_residual, residual=False)
-        editor.delete_nodes(sorted(doomed))
+        end = self._sweep(sim, inc, inc.path[-1], point, inc.normals[-1] if normal is None else normal)
         t1 = time.perf_counter()
-        inc.extend(point, min_step=0.0)
+        inc.extend(point, min_step=0.0, normal=normal)
         inc.plan_stations()
+        moved = {}
+        if end >= 0:  # the slit's end node moves on with the tool
+            self.editor.move_node(end, point)
+            moved[end] = point
         self.contact_path.append(point)
         t2 = time.perf_counter()
         # a sliver may wait a few events for better geometry, not forever
-        report, result, positions = self._stage3(sim, inc, point, defer_slivers=inc.deferrals < 3)
+        report, result, positions = self._stage3(sim, inc, point, moved, defer_slivers=inc.deferrals < 3)
         t3 = time.perf_counter()
         self._apply(sim, report, positions)
         t4 = time.perf_counter()
@@ -314,11 +356,49 @@ class Cutter:
         self.totals["events"] += 1
         self._count(report, result)
 
-    def _stage3(self, sim: CutHost, inc: Incision, point, *, defer_slivers: bool):
-        """Re-mesh the grey area of the current edit and the holes left open before, then
-        finish the edit. Returns (edit report, fill result, positions)."""
+    def _sweep(self, sim: CutHost, inc: Incision, a: np.ndarray, b: np.ndarray, normal) -> int:
+        """Stage 1: delete what the capsule a-b (the swept circle) touches: the nodes inside
+        and the springs through it. A deleted spring that crosses the cut (its nodes on either
+        side of the line a-b in the skin, whose outward normal is ``normal``) and whose nodes
+        survive becomes a residual-stress link; one with both nodes on one side, grazed by the
+        capsule, joins what the cut does not separate and makes none.
+        Returns the slit's end node (kept, stripped of its springs and triangles, to move
+        on), or -1."""
+        editor, model, r = self.editor, self.model, inc.sweep_radius
+        near = self._nodes_near(sim, a, b, r + self.edge_reach)
+        near_springs = sorted({s for v in near for s in editor.node_springs[v]})
+        dm = sim.device_model
+        nodes = self._hits.run(capsule_node_hits_among, len(near), [
+            sim.state.positions, dm.node_flags, self._index_array(near), wp.vec3(*a), wp.vec3(*b), float(r)])
+        springs = self._hits.run(capsule_spring_hits_among, len(near_springs), [
+            sim.state.positions, dm.spring_indices, self._index_array(near_springs),
+            wp.vec3(*a), wp.vec3(*b), float(r)])
+        editor.begin()
+        end = inc.end_node if inc.end_node >= 0 and model.active[inc.end_node] else -1
+        doomed = {int(v) for v in nodes} - {end}
+        if end >= 0:
+            editor.delete_springs(list(editor.node_springs[end]), residual=False)
+            editor.delete_triangles(list(editor.node_triangles[end]))
+        own_lips = {n for n in inc.left + inc.right + [inc.start_node, end] if n >= 0}
+        pairs = model.spring_table.column("pairs")
+        crossing = _crosses(self._positions_view(sim), pairs[springs], a, b, normal)
+        cut = [sl for sl, k in zip(springs, crossing) if k and not ({int(v) for v in pairs[sl]} & own_lips)]
+        editor.delete_springs(cut, residual=True, doomed_nodes=doomed)
+        editor.delete_springs(springs, residual=False)  # grazed on one side, or at own lips
+        editor.delete_nodes(sorted(doomed))
+        return end
+
+    def _index_array(self, idx) -> wp.array:
+        return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.device)
+
+    def _stage3(self, sim: CutHost, inc: Incision, point, moved: dict, *, defer_slivers: bool):
+        """Re-mesh the grey area of the current edit and the holes left open before, finish the
+        edit and carry the residual links of deleted nodes. Returns (edit report, fill result,
+        positions)."""
         editor = self.editor
         positions = NodePositions(self._positions_view(sim))
+        for v, p in moved.items():
+            positions[v] = p
         result = {"created": [], "yellow": [], "blue": [], "unfilled": []}
         if editor.report.deleted_triangle_corners or inc.open_chains:
             result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions,
@@ -326,19 +406,42 @@ class Cutter:
         inc.deferrals = inc.deferrals + 1 if result["unfilled"] else 0
         inc.open_chains = result["unfilled"]  # retried at the next event
         report = editor.finish()
-        candidates = [v for v in list(report.new_nodes) + sorted(editor.touched_nodes)
-                      if self.model.active[v]]
-        if candidates and point is not None:
-            xs = positions[candidates]
-            inc.anchor = int(candidates[int(np.argmin(np.linalg.norm(xs - point, axis=1)))])
+        self._carry_links(inc, report, positions)
         return report, result, positions
+
+    def _carry_links(self, inc: Incision, report, positions: NodePositions) -> None:
+        """Move each residual link that lost a node in this edit to the node that took that
+        node's place: the nearest lip node on the same side of the incision (within the sweep
+        radius + 1.5 spacings; else the nearest node of the edit there); drop it only when that
+        side is gone. The lost node lay at the wound's edge, and the stress the link carries
+        acts between the wound's two edges: its other node, if not a lip, moves to the nearest
+        lip on its own side too (so a lip is never pulled across the wound by a node far on the
+        other side)."""
+        model, editor = self.model, self.editor
+        if not report.orphaned_links:
+            return
+        lips = [v for v in inc.left + inc.right if v >= 0 and model.active[v]]
+        others = sorted(v for v in set(report.new_nodes) | editor.touched_nodes
+                        if model.active[v] and v not in (inc.start_node, inc.end_node) and v not in lips)
+        places = _Places(inc, positions, lips, others, inc.sweep_radius + 1.5 * self.spacing)
+        for keep, lost, force, smoothing in report.orphaned_links:
+            if not model.active[keep]:
+                continue
+            a = places.taking(positions[lost], exclude={keep})
+            b = keep if keep in places.lip_set else places.taking(positions[keep], exclude={a}, lips_only=True)
+            if a < 0:
+                self.totals["lost_links"] += 1
+                continue
+            editor.add_link(keep if b < 0 else b, a, force, smoothing)
 
     def _count(self, report, result) -> None:
         tot = self.totals
         tot["deleted_nodes"] += len(report.deleted_nodes) - len(report.removed_fragments)
         tot["deleted_springs"] += len(report.deleted_springs)
         tot["residual_links"] += len(report.residual_links)
+        tot["carried_links"] += len(report.carried_links)
         tot["lip_nodes"] += len(result["created"])
+        tot["lip_nodes_removed"] += int(np.sum(self.model.node_class[report.deleted_nodes] == NodeClass.LIP))
         tot["new_springs"] += len(report.new_springs)
         tot["removed_fragments"] += len(report.removed_fragments)
         self.unfilled_holes = sum(len(i.open_chains) for i in self.incisions)
@@ -347,14 +450,16 @@ class Cutter:
 
     def _apply(self, sim: CutHost, report, positions: NodePositions) -> None:
         """Update the explicit step's limit node by node (rows of the nodes whose springs or
-        links changed), then let the host mirror the edit and initialise the new nodes."""
-        new = np.array(report.new_nodes, dtype=np.int64)
+        links changed), then let the host mirror the edit and place the new and moved nodes."""
+        placed = np.array(list(report.new_nodes) + [v for v in report.moved_nodes if self.model.active[v]],
+                          dtype=np.int64)
         changed = set(self.editor.touched_nodes)
-        for slot in report.residual_links:
-            changed.update(int(v) for v in self.model.link_table.column("pairs")[slot])
+        link_pairs = self.model.link_table.column("pairs")
+        for slot in list(report.residual_links) + list(report.carried_links):
+            changed.update(int(v) for v in link_pairs[slot])
         changed |= {int(v) for v in report.deleted_nodes}
         self.row_sums.update(sorted(changed), self.editor, positions)
-        sim.apply_topology_edit(new, positions[new] if len(new) else np.zeros((0, 3)),
+        sim.apply_topology_edit(placed, positions[placed] if len(placed) else np.zeros((0, 3)),
                                 self.row_sums.limit())
 
     # ----------------------------------------------------------------- measures
@@ -364,40 +469,20 @@ class Cutter:
         Args:
             positions: Current node positions [m], shape (node_count, 3).
         """
-        x = positions
-        active = self.model.active
-        widths = []
-        for inc in self.incisions:
-            pairs = inc.pairs()
-            if len(pairs):
-                pairs = pairs[active[pairs[:, 0]] & active[pairs[:, 1]]]
-                widths.extend(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1).tolist())
-        return float(np.median(widths)) if widths else float("nan")
+        return incision_width(self.incisions, self.model, positions)
 
     def lip_deviation(self, positions: np.ndarray, in_plane: bool = True) -> float:
-        """Largest distance [m] of a lip node from the tool's contact path (a polyline).
+        """Largest distance [m] of a lip node from the tool's contact path (see
+        ``warp_cut.cut.measures.lip_deviation``)."""
+        return lip_deviation(self.incisions, self.model, positions, in_plane=in_plane)
 
-        Args:
-            positions: Current node positions [m], shape (node_count, 3).
-            in_plane: Measure in the surface plane of each incision (the component along its
-                normal removed), i.e. the incision's shape as seen on the skin; else in 3D.
-        """
-        model = self.model
-        lips = np.flatnonzero(model.active & (model.node_class == NodeClass.LIP))
-        polylines = [inc for inc in self.incisions if len(inc.path) > 1]
-        if not len(lips) or not polylines:
-            return float("nan")
-        x = np.asarray(positions)[lips].astype(np.float64)
-        best = np.full(len(lips), np.inf)
-        for inc in polylines:
-            poly = np.array(inc.path)
-            pts = x
-            if in_plane:
-                n = inc.normal
-                pts = x - np.outer((x - poly[0]) @ n, n)
-                poly = poly - np.outer((poly - poly[0]) @ n, n)
-            best = np.minimum(best, polyline_distance(pts, poly))
-        return float(best.max())
+    def coverage(self, positions: np.ndarray) -> float:
+        """Fraction of the tool's path in the skin (the contact points of every event, from
+        where the blade entered) that the opened incisions cover, within 0.5 spacing."""
+        covered = [coverage([inc], self.model, positions, np.asarray(inc.path), 0.5 * self.spacing)
+                   for inc in self.incisions if len(inc.path) > 1]
+        lengths = [inc.length for inc in self.incisions if len(inc.path) > 1]
+        return float(np.average(covered, weights=lengths)) if covered and sum(lengths) > 0 else float("nan")
 
     def metrics(self, positions: np.ndarray) -> dict:
         """The cut's entries of metrics.json: ``cut``, ``incision`` and ``latency_ms``.
@@ -406,14 +491,16 @@ class Cutter:
             positions: Current node positions [m], shape (node_count, 3).
         """
         length = sum(inc.length for inc in self.incisions)
-        cut = {k: v for k, v in self.totals.items()}
+        cut = dict(self.totals)
         cut["incisions"] = len(self.incisions)
         cut["unfilled_holes"] = self.unfilled_holes
+        cut["live_residual_links"] = self.model.link_count
         return {
             "cut": cut,
             "incision": {"length_m": length, "max_deviation_m": self.lip_deviation(positions),
                          "max_deviation_3d_m": self.lip_deviation(positions, in_plane=False),
-                         "width_m": self.incision_width(positions)},
+                         "width_m": self.incision_width(positions),
+                         "coverage": self.coverage(positions)},
             "latency_ms": self.latency_summary(),
         }
 

@@ -1,12 +1,14 @@
 """Incision: the tool's contact path, its Bezier curve (Stage 2) and the lips' stations.
 
-The path is the sequence of contact points [m]. The curve is a C1 chain of cubic Bezier
+The path is the sequence of contact points [m], each with the skin's outward normal there
+(the skin may be curved: every point has its own). The curve is a C1 chain of cubic Bezier
 segments fitted to it within ``tolerance`` (paper Eq. 5-8, ``warp_cut.cut.bezier``); its end
 point is the latest contact point, so the incision's end follows the tool.
 
 The incision is a slit with two lips. Its stations are arc-length positions u along the
 curve: the start (u = 0) and the end (u = length) each carry one node, every interior station
-two, one per lip, offset by +-``lip_offset`` across the curve. Walking around the slit - up the
+two, one per lip, offset by +-``lip_offset`` across the curve in the skin's tangent plane
+there (along n x t, n the local normal, t the tangent). Walking around the slit - up the
 left lip, round the end, back down the right lip - gives each point the slit coordinate
 
     theta = u (left lip),  theta = length (end),  theta = 2 length - u (right lip),  0 (start)
@@ -39,6 +41,11 @@ def closest_on_polyline(points: np.ndarray, poly: np.ndarray):
     return k, t[rows, k], closest[rows, k], dist[rows, k]
 
 
+def _unit(v) -> np.ndarray:
+    v = np.asarray(v, dtype=np.float64)
+    return v / np.linalg.norm(v)
+
+
 def polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     """Distance (m,) [m] of points (m, 3) to a polyline (k, 3)."""
     return closest_on_polyline(points, poly)[3]
@@ -55,16 +62,20 @@ def _max_distance(points: np.ndarray, curve: BezierChain) -> float:
 class Incision:
     """One continuous cut (one contact episode of the tool).
 
-    normal: (3,) unit surface normal at the cut (the side convention: left = normal x tangent).
-    spacing: lip station spacing [m] (about the local mesh spacing).
-    lip_offset: half the initial width of the slit [m].
-    tolerance: maximum distance of the curve from the contact path [m].
+    Args:
+        start_point: Where the blade entered the skin [m], shape (3,).
+        normal: Unit outward normal of the skin there, shape (3,) (the side convention:
+            left = normal x tangent).
+        spacing: Lip station spacing [m] (about the local mesh spacing).
+        lip_offset: Half the initial width of the slit [m].
+        tolerance: Maximum distance of the curve from the contact path [m].
     """
 
     def __init__(self, start_point, normal, *, spacing: float, lip_offset: float,
                  tolerance: float):
         self.path = [np.asarray(start_point, dtype=np.float64)]
-        self.normal = np.asarray(normal, dtype=np.float64) / np.linalg.norm(normal)
+        self.normals = [_unit(normal)]
+        """Unit outward normal of the skin at each path point, shape (3,) each."""
         self.spacing = float(spacing)
         self.lip_offset = float(lip_offset)
         self.tolerance = float(tolerance)
@@ -87,6 +98,8 @@ class Incision:
         """Borders of holes the last cut event could not fill (retried at the next one)."""
         self.deferrals = 0
         """Consecutive events that left a hole open."""
+        self.reached_border = False
+        """True once the cut has opened the skin to the tissue's outer border (a notch)."""
 
     # ----------------------------------------------------------------- curve
     @property
@@ -94,13 +107,20 @@ class Incision:
         """Arc length of the curve [m]."""
         return float(self._cum[-1])
 
-    def extend(self, point, min_step: float) -> bool:
-        """Append a contact point [m] and refit; points closer than min_step [m] to the last one
-        are skipped (returns False)."""
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit outward normal of the skin where the incision started, shape (3,)."""
+        return self.normals[0]
+
+    def extend(self, point, min_step: float, normal=None) -> bool:
+        """Append a contact point [m] (with the skin's unit ``normal`` there; default the
+        last one) and refit; points closer than min_step [m] to the last one are skipped
+        (returns False)."""
         point = np.asarray(point, dtype=np.float64)
         if np.linalg.norm(point - self.path[-1]) < min_step:
             return False
         self.path.append(point)
+        self.normals.append(self.normals[-1] if normal is None else _unit(normal))
         self.curve = self._refit()
         u = np.linspace(0.0, self.curve.segment_count, _SAMPLES_PER_SEGMENT * self.curve.segment_count + 1)
         self._poly = self.curve.evaluate(u)
@@ -152,14 +172,26 @@ class Incision:
         n = np.linalg.norm(d, axis=1, keepdims=True)
         return np.divide(d, n, out=np.zeros_like(d), where=n > 0)
 
+    def normal_at(self, u) -> np.ndarray:
+        """Unit outward skin normals (m, 3) at arc lengths u (m,) [m], interpolated between
+        the contact points' normals."""
+        u = np.atleast_1d(np.asarray(u, dtype=np.float64))
+        normals = np.asarray(self.normals)
+        if len(normals) == 1:
+            return np.repeat(normals, len(u), axis=0)
+        chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.asarray(self.path), axis=0), axis=1))])
+        s = u * (chord[-1] / self.length) if self.length > 0 else np.zeros_like(u)
+        n = np.stack([np.interp(s, chord, normals[:, c]) for c in range(3)], axis=1)
+        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+
     def project(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(u (m,) arc length of the closest curve point [m], side (m,) +1 left / -1 right,
-        distance (m,) [m]) of points (m, 3)."""
+        distance (m,) [m]) of points (m, 3); the side is taken in the skin's tangent plane
+        at the closest point."""
         x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         k, t, closest, dist = closest_on_polyline(x, self._poly)
         u = self._cum[k] + t * np.diff(self._cum)[k]
-        lateral = np.einsum("ij,ij->i", np.cross(self.tangent_at(u), x - closest),
-                            np.broadcast_to(self.normal, x.shape))
+        lateral = np.einsum("ij,ij->i", np.cross(self.tangent_at(u), x - closest), self.normal_at(u))
         return u, np.where(lateral >= 0.0, 1, -1), dist
 
     def theta(self, u, side) -> np.ndarray:
@@ -185,8 +217,7 @@ class Incision:
         c = self.point_at(u)[0]
         if side == 0:
             return c
-        across = np.cross(self.normal, self.tangent_at(u)[0])
-        return c + side * self.lip_offset * across
+        return c + side * self.lip_offset * _unit(np.cross(self.normal_at(u)[0], self.tangent_at(u)[0]))
 
     def lip_nodes(self) -> list[tuple[int, float, int, int]]:
         """Every lip slot as (node or -1, theta, side, station index): start (side 0, index -1),

@@ -181,10 +181,14 @@ def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
 
 
 def _lips_for_chain(incision, chain, theta_of, lip_slots):
-    """The lip slots facing a border chain, ordered along it (decreasing theta)."""
+    """The lip slots facing a border chain, ordered along it (decreasing theta); [] when a
+    closed chain does not hold the slit's start (it is then closed over, see ``fill_hole``)."""
     total = 2.0 * incision.length
     closed = chain[0] == chain[-1]
     lip_node_ids = {node for node, *_ in lip_slots if node >= 0}
+    starts = [s for s in lip_slots if s[3] == -1]
+    if closed and not starts:
+        return []
     if closed:
         hi, lo = total, 0.0
     else:
@@ -203,7 +207,7 @@ def _lips_for_chain(incision, chain, theta_of, lip_slots):
     picked.sort(key=lambda item: -item[0])
     ordered = [(node, side, station) for _, node, side, station in picked]
     if closed:
-        start = [s for s in lip_slots if s[3] == -1][0]
+        start = starts[0]
         ordered = [(start[0], 0, -1)] + ordered + [(start[0], 0, -1)]
     else:
         if chain[0] in lip_node_ids:
@@ -213,81 +217,221 @@ def _lips_for_chain(incision, chain, theta_of, lip_slots):
     return ordered
 
 
+_PLACEHOLDER = 1 << 40
+"""Lip nodes a fill would make are numbered from here until the fill is accepted."""
+
+
+class _LipSlots:
+    """The incision's lip slots during one fill: which exist, their slit coordinates, and lip
+    nodes proposed for a chain (placeholders, made real only if its fill is accepted)."""
+
+    def __init__(self, editor, incision, positions):
+        self.editor, self.incision, self.positions = editor, incision, positions
+        active = editor.model.active
+        self.slots = [(node if node >= 0 and active[node] else -1, theta, side, station)
+                      for node, theta, side, station in incision.lip_nodes()]
+        self.theta = {node: theta for node, theta, *_ in self.slots if node >= 0}
+        self.created: list[int] = []
+        self._proposed: dict[int, tuple] = {}
+
+    def theta_of(self, node) -> float:
+        if node in self.theta:
+            return self.theta[node]
+        u, side, _ = self.incision.project(self.positions[node][None])
+        return float(self.incision.theta(u, side)[0])
+
+    def free_for(self, chain) -> list:
+        """Slots not meshed elsewhere (no node yet, a node without triangles, or an end of
+        ``chain``)."""
+        tris = self.editor.node_triangles
+        return [s for s in self.slots if s[0] < 0 or not tris[s[0]] or s[0] in (chain[0], chain[-1])]
+
+    def propose(self, ordered, chain, snap: float) -> list[int]:
+        """Node ids for the ordered slots: existing nodes, or placeholders placed where the lip
+        node would be made (a closed loop meets the start twice: one placeholder). Where a node
+        of ``chain`` on the slot's side already lies within ``snap`` [m] of that place (the
+        tissue has closed in on the curve there), that node serves as the lip instead."""
+        lips, here = [], {}
+        inc = self.incision
+        spare = self._snap_candidates(chain)
+        for node, side, station in ordered:
+            if node < 0:
+                key = (station, side)
+                if key not in here:
+                    u = inc.station_u[station] if station >= 0 else (0.0 if station == -1 else inc.length)
+                    point = inc.lip_position(u, side)
+                    here[key] = self._snap(spare, point, side, snap) if station >= 0 else -1
+                    if here[key] < 0:
+                        here[key] = _PLACEHOLDER + len(self._proposed)
+                        self.positions[here[key]] = point
+                    self._proposed[here[key]] = key
+                node = here[key]
+            lips.append(node)
+        return lips
+
+    def _snap_candidates(self, chain) -> dict:
+        """Interior chain nodes that are no lip: node -> (position, side, distance from the
+        curve [m])."""
+        lip_nodes = {s[0] for s in self.slots if s[0] >= 0}
+        inner = [v for v in chain[1:-1] if v not in lip_nodes]
+        if not inner:
+            return {}
+        _, sides, dist = self.incision.project(self.positions[inner])
+        return {v: (self.positions[v], int(side), float(d)) for v, side, d in zip(inner, sides, dist)}
+
+    def _snap(self, spare: dict, point, side: int, snap: float) -> int:
+        """The chain node that should serve as the lip at ``point`` on ``side``: one within
+        half of ``snap`` of it, or within ``snap`` and nearer the curve than the lip offset
+        (the tissue has closed in on the curve there); -1 if none."""
+        best, best_d = -1, np.inf
+        for v, (x, s, from_curve) in spare.items():
+            d = float(np.linalg.norm(x - point))
+            close = d < 0.5 * snap or (d < snap and from_curve < self.incision.lip_offset)
+            if s == side and close and d < best_d:
+                best, best_d = v, d
+        if best >= 0:
+            del spare[best]
+        return best
+
+    def discard(self) -> None:
+        for ph in self._proposed:
+            if ph >= _PLACEHOLDER:
+                self.positions.extra.pop(ph, None)
+        self._proposed.clear()
+
+    def accept(self) -> dict[int, int]:
+        """Make the proposed lip nodes (a snapped tissue node becomes the lip as it is);
+        returns placeholder -> node."""
+        mapping = {}
+        for ph, (station, side) in self._proposed.items():
+            if ph < _PLACEHOLDER:
+                node = ph
+            else:
+                point = self.positions.extra.pop(ph)
+                node = int(self.editor.add_nodes(point[None], NodeClass.LIP)[0])
+                self.positions[node] = point
+                self.created.append(node)
+            self.incision.set_lip_node(station, side, node)
+            self.slots = [(node if (st == station and sd == side) else n, th, sd, st)
+                          for n, th, sd, st in self.slots]
+            mapping[ph] = node
+        self._proposed.clear()
+        return mapping
+
+
+def _start_at_slit_start(chain, incision, slots: _LipSlots) -> list[int]:
+    """A closed chain rotated to begin (and end) at the slit's start node, or the node nearest
+    it (theta ~ 0); an open chain as it is."""
+    if chain[0] != chain[-1]:
+        return chain
+    body = chain[:-1]
+    total = 2.0 * incision.length
+    if incision.start_node in body:
+        k = body.index(incision.start_node)
+    else:
+        k = int(np.argmin([min(slots.theta_of(v), total - slots.theta_of(v)) for v in body]))
+    return body[k:] + body[:k] + [body[k]]
+
+
+def _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers):
+    """The matching strip between ``chain`` and ``lips``, or, where displaced nodes make it
+    fold over or thin, the hole polygon cut into ears: the better-shaped valid one, or None
+    when neither is valid (or, with ``defer_slivers``, both have an angle below
+    ``min_angle_deg``)."""
+    candidates = []
+    if lips:
+        strip = zip_strip(chain, lips, positions, normal)
+        if _acceptable(strip, editor, positions, normal):
+            candidates.append(strip)
+    if not candidates or _min_angle(candidates[0], positions) < min_angle_deg:
+        ears = ear_clip(_polygon(chain, lips), positions, normal)
+        if _acceptable(ears, editor, positions, normal):
+            candidates.append(ears)
+    if not candidates:
+        return None
+    best = max(candidates, key=lambda c: _min_angle(c, positions))
+    if _min_angle(best, positions) < min_angle_deg and defer_slivers:
+        return None  # the tool moves on: the next event may shape it better
+    return best
+
+
 def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
               min_angle_deg: float = 15.0, defer_slivers: bool = False) -> dict:
-    """Re-mesh the hole around ``incision`` (Stage 3). ``positions`` is a ``NodePositions`` of the
-    current node positions [m] (new springs take their rest lengths from them); the positions
-    of the lip nodes made here are added to it. ``defer_slivers``: leave a hole open (for the
-    next event) rather than fill it with a triangle whose smallest angle is below
-    ``min_angle_deg``."""
+    """Re-mesh the hole around ``incision`` (Stage 3).
+
+    Args:
+        editor: The TopologyEditor of the current edit.
+        incision: The incision whose lips face the hole.
+        removed_corners: Corners of the triangles this edit removed (their winding order).
+        positions: A ``NodePositions`` of the current node positions [m] (new springs take
+            their rest lengths from them); the lip nodes made here are added to it.
+        open_chains: Borders of holes an earlier event left open, tried again.
+        min_angle_deg: Smallest acceptable triangle angle [deg].
+        defer_slivers: Leave a hole open (for the next event) rather than fill it with a
+            triangle whose smallest angle is below ``min_angle_deg``.
+
+    Returns:
+        ``created`` lip nodes, new ``triangles``, ``chains`` count, ``unfilled`` chains
+        (borders left open), and the ``yellow`` / ``blue`` border nodes. Lip nodes are made
+        only for chains whose fill is accepted. A closed chain that does not hold the slit's
+        start (the slit's end was lost) is closed over without lips.
+    """
     chains = hole_chains(editor, removed_corners, open_chains)
-    lip_slots = incision.lip_nodes()
-    lip_theta = {node: theta for node, theta, *_ in lip_slots if node >= 0}
-
-    def theta_of(node):
-        if node in lip_theta:
-            return lip_theta[node]
-        u, side, _ = incision.project(positions[node][None])
-        return float(incision.theta(u, side)[0])
-
-    # a lip slot whose node was deleted (by this cut or a later one) is made again
-    active = editor.model.active
-    lip_slots = [(node if node >= 0 and active[node] else -1, theta, side, station)
-                 for node, theta, side, station in lip_slots]
-    created, triangles, unfilled = [], [], []
+    slots = _LipSlots(editor, incision, positions)
+    triangles, unfilled = [], []
     for chain in chains:
-        if chain[0] == chain[-1]:
-            # start the loop at the slit's start node, or the node nearest it (theta ~ 0)
-            body = chain[:-1]
-            total = 2.0 * incision.length
-            if incision.start_node in body:
-                k = body.index(incision.start_node)
+        chain = _start_at_slit_start(chain, incision, slots)
+        ordered = _lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain))
+        if not ordered and chain[0] != chain[-1]:
+            continue  # a notch open to the tissue's outer border: no hole
+        lips = slots.propose(ordered, chain, snap=0.5 * incision.spacing)
+        normal = _hole_normal(incision, chain + lips, positions)
+        tris = _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers)
+        if tris is None:
+            slots.discard()
+            if _notch(editor, chain, slots):
+                incision.reached_border = True
             else:
-                k = int(np.argmin([min(theta_of(v), total - theta_of(v)) for v in body]))
-            chain = body[k:] + body[:k] + [body[k]]
-        # lips already meshed elsewhere are not part of this hole
-        free = [s for s in lip_slots if s[0] < 0 or not editor.node_triangles[s[0]]
-                or s[0] in (chain[0], chain[-1])]
-        ordered = _lips_for_chain(incision, chain, theta_of, free)
-        if not ordered:
+                unfilled.append(chain)  # leave it open (for now) rather than make an invalid mesh
             continue
-        lips = []
-        made_here: dict[tuple, int] = {}
-        for node, side, station in ordered:
-            if node < 0 and (station, side) in made_here:
-                node = made_here[(station, side)]  # a closed loop meets the start node twice
-            if node < 0:
-                u = incision.station_u[station] if station >= 0 else (0.0 if station == -1 else incision.length)
-                point = incision.lip_position(u, side)
-                node = int(editor.add_nodes(point[None], NodeClass.LIP)[0])
-                positions[node] = point
-                incision.set_lip_node(station, side, node)
-                lip_slots = [(node if (st == station and sd == side) else n, th, sd, st)
-                             for n, th, sd, st in lip_slots]
-                created.append(node)
-                made_here[(station, side)] = node
-            lips.append(node)
-        # the matching strip, or, where displaced nodes make it fold over or thin, the hole
-        # polygon cut into ears; the better-shaped valid one is kept
-        candidates = [strip for strip in (zip_strip(chain, lips, positions, incision.normal),)
-                      if _acceptable(strip, editor, positions, incision.normal)]
-        if not candidates or _min_angle(candidates[0], positions) < min_angle_deg:
-            ears = ear_clip(_polygon(chain, lips), positions, incision.normal)
-            if _acceptable(ears, editor, positions, incision.normal):
-                candidates.append(ears)
-        if not candidates:
-            unfilled.append(chain)  # leave it open (for now) rather than make an invalid mesh
-            continue
-        strip = max(candidates, key=lambda c: _min_angle(c, positions))
-        if _min_angle(strip, positions) < min_angle_deg and defer_slivers:
-            unfilled.append(chain)  # the tool moves on: the next event may shape it better
-            continue
-        for tri in strip:
+        made = slots.accept()
+        for tri in tris:
+            tri = tuple(made.get(v, v) for v in tri)
             triangles.append(tri)
             editor.add_triangle(tri, positions, SpringClass.RED)
     classes = _classify(editor, incision, triangles, positions)
-    return {"created": created, "triangles": triangles,
+    return {"created": slots.created, "triangles": triangles,
             "chains": len(chains), "unfilled": unfilled, **classes}
+
+
+def _notch(editor, chain, slots: _LipSlots) -> bool:
+    """True if an open chain ends on the tissue's outer border away from the lips: the cut
+    has reached the edge of the tissue there and the region is open to the outside, not a
+    hole."""
+    if chain[0] == chain[-1]:
+        return False
+    lips = {s[0] for s in slots.slots if s[0] >= 0}
+    return any(v not in lips and _on_outer_border(editor, v, lips) for v in (chain[0], chain[-1]))
+
+
+def _on_outer_border(editor, v: int, lips: set) -> bool:
+    """True if node v has an edge used by one live triangle whose other end is not a lip node
+    either (an edge of the tissue's own border, not of a slit)."""
+    corners = editor.model.triangle_table.column("corners")
+    for t in editor.node_triangles[v]:
+        for w in corners[t]:
+            w = int(w)
+            if w != v and w not in lips and len(editor.triangles_with_edge(v, w)) == 1:
+                return True
+    return False
+
+
+def _hole_normal(incision, nodes, positions) -> np.ndarray:
+    """Unit outward normal of the skin at a hole: the incision's normal at the hole's nodes'
+    projections onto the curve, averaged."""
+    u, _, _ = incision.project(positions[list(nodes)])
+    n = incision.normal_at(u).sum(axis=0)
+    return n / np.linalg.norm(n)
 
 
 def _min_angle(tris, positions) -> float:
@@ -325,30 +469,39 @@ def _acceptable(strip, editor, positions, normal) -> bool:
 
 
 def _classify(editor, incision, triangles, positions) -> dict:
-    """Red / green / lip springs and yellow / blue nodes of the new triangles."""
+    """Classes after a fill: lip springs along the lips; for every tissue node the edit
+    touched that is joined to lip nodes, the spring to its nearest lip is red and the others
+    green, and the node is yellow if one of its lips is an end point of the curve, else blue.
+    A touched node no longer joined to any lip (the slit's end moved on) is grey: it borders
+    the grey area."""
+    model = editor.model
     lip_set = {n for n in incision.left + incision.right + [incision.start_node, incision.end_node] if n >= 0}
     ends = {incision.start_node, incision.end_node} - {-1}
-    rungs: dict[int, set] = defaultdict(set)
     for tri in triangles:
         for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
-            if (a in lip_set) != (b in lip_set):
-                border, lip = (a, b) if b in lip_set else (b, a)
-                rungs[border].add(lip)
-            elif a in lip_set and b in lip_set:
+            if a in lip_set and b in lip_set:
                 slot = editor.spring_between(a, b)
                 if slot is not None:
                     editor.set_spring_class(slot, SpringClass.LIP)
-    yellow, blue = [], []
-    for border, lips in rungs.items():
-        lips = sorted(lips)
-        dist = [np.linalg.norm(positions[lip] - positions[border]) for lip in lips]
+    affected = ({v for tri in triangles for v in tri} | editor.touched_nodes) - lip_set
+    pairs = model.spring_table.column("pairs")
+    yellow, blue, grey = [], [], []
+    for v in sorted(affected):
+        if not model.active[v]:
+            continue
+        lips = sorted({int(w) for s in editor.node_springs[v] for w in pairs[s] if int(w) in lip_set})
+        if not lips:
+            if model.node_class[v] in (NodeClass.YELLOW, NodeClass.BLUE):
+                grey.append(v)
+            continue
+        dist = [np.linalg.norm(positions[lip] - positions[v]) for lip in lips]
         nearest = lips[int(np.argmin(dist))]
         for lip in lips:
-            slot = editor.spring_between(border, lip)
-            if slot is not None:
-                editor.set_spring_class(slot, SpringClass.RED if lip == nearest else SpringClass.GREEN)
-        (yellow if ends & set(lips) else blue).append(border)
+            editor.set_spring_class(editor.spring_between(v, lip),
+                                    SpringClass.RED if lip == nearest else SpringClass.GREEN)
+        (yellow if ends & set(lips) else blue).append(v)
     editor.set_node_class(yellow, NodeClass.YELLOW)
     editor.set_node_class(blue, NodeClass.BLUE)
+    editor.set_node_class(grey, NodeClass.GREY)
     editor.set_node_class(lip_set, NodeClass.LIP)
     return {"yellow": yellow, "blue": blue}

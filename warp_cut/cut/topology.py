@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..sim.stiffness import van_gelder_stiffness
 from .classes import NodeClass, SpringClass
 
 __all__ = ["TopologyEditor", "EditReport", "NodePositions"]
@@ -53,6 +54,12 @@ class EditReport:
     new_nodes: list = field(default_factory=list)
     new_springs: list = field(default_factory=list)
     new_triangles: list = field(default_factory=list)
+    carried_links: list = field(default_factory=list)
+    """Residual links re-made between a surviving node and the node that took a deleted one's place."""
+    orphaned_links: list = field(default_factory=list)
+    """(surviving node, deleted node, force [N], smoothing [m]) of links that lost a node."""
+    moved_nodes: list = field(default_factory=list)
+    """Nodes placed at a new rest position (the slit's end node moving with the tool)."""
     removed_fragments: list = field(default_factory=list)
     """Nodes deleted because the edit left them without any triangle."""
     stray_springs: list = field(default_factory=list)
@@ -147,13 +154,21 @@ class TopologyEditor:
                 self.node_links[j].add(int(slot))
             self.report.residual_links.extend(int(s) for s in new)
 
-    def delete_links(self, slots) -> None:
+    def delete_links(self, slots, *, lost_nodes=()) -> None:
+        """Delete residual links. A link losing one of ``lost_nodes`` (nodes being deleted) while
+        its other node lives on is reported in ``report.orphaned_links`` for the caller to
+        carry to the node that takes the lost one's place."""
         table = self.model.link_table
         pairs = table.column("pairs")
+        lost = {int(v) for v in lost_nodes}
         for slot in {int(s) for s in slots}:
             if not table.alive[slot]:
                 continue
             i, j = (int(v) for v in pairs[slot])
+            for gone, keep in ((i, j), (j, i)):
+                if gone in lost and keep not in lost and self.model.active[keep]:
+                    self.report.orphaned_links.append(
+                        (keep, gone, float(table.column("force")[slot]), float(table.column("smoothing")[slot])))
             self.node_links[i].discard(slot)
             self.node_links[j].discard(slot)
             self._touched.update((i, j))  # their stable-step rows change
@@ -166,7 +181,7 @@ class TopologyEditor:
         for v in nodes:
             self.delete_springs(list(self.node_springs[v]), residual=False, doomed_nodes=doomed)
             self.delete_triangles(list(self.node_triangles[v]))
-            self.delete_links(list(self.node_links[v]))
+            self.delete_links(list(self.node_links[v]), lost_nodes=doomed)
         if nodes:
             self.model.node_table.kill(nodes)
             self.report.deleted_nodes.extend(nodes)
@@ -187,6 +202,24 @@ class TopologyEditor:
         self.report.new_nodes.extend(int(s) for s in slots)
         self._touched.update(int(s) for s in slots)
         return slots
+
+    def add_link(self, i: int, j: int, force: float, smoothing: float) -> int:
+        """A residual link between nodes i and j of magnitude ``force`` [N] and smoothing length
+        ``smoothing`` [m] (a link carried over from a deleted node)."""
+        slot = int(self.model.link_table.append(pairs=np.array([[i, j]]), force=[force],
+                                                smoothing=[smoothing])[0])
+        self.node_links[i].add(slot)
+        self.node_links[j].add(slot)
+        self._touched.update((int(i), int(j)))
+        self.report.carried_links.append(slot)
+        return slot
+
+    def move_node(self, node: int, point) -> None:
+        """Give a live node a new rest position [m] (3,) (it should have no springs left: its
+        new ones take their rest lengths from where it is now)."""
+        self.model.node_table.set("points", [int(node)], np.asarray(point, np.float64)[None])
+        self.report.moved_nodes.append(int(node))
+        self._touched.add(int(node))
 
     def add_spring(self, i: int, j: int, positions: np.ndarray, spring_class: int) -> int:
         """A spring between i and j with rest length from ``positions`` (node_count, 3) [m];
@@ -247,6 +280,8 @@ class TopologyEditor:
         if fragments:
             self.delete_nodes(fragments)
             self.report.removed_fragments.extend(fragments)
+        if model.stiffness_model == "material":
+            self._refresh_material_stiffness()
         touched = np.array(sorted(v for v in self._touched if model.active[v]), dtype=np.int64)
         if len(touched) and lumped:
             areal = model.material.density * model.material.thickness
@@ -256,3 +291,24 @@ class TopologyEditor:
             model.node_table.set("masses", touched, masses)
         model.topology_version += 1
         return self.report
+
+    def _refresh_material_stiffness(self) -> None:
+        """Give the springs whose triangles changed in this edit (new ones included) their
+        van Gelder stiffness from the triangles they now border (``warp_cut.sim.stiffness``)."""
+        model = self.model
+        table = model.triangle_table
+        corners = list(self.report.deleted_triangle_corners)
+        corners += [tuple(int(v) for v in table.column("corners")[t]) for t in self.report.new_triangles]
+        edges = {tuple(sorted((c[k], c[(k + 1) % 3]))) for c in corners for k in range(3)}
+        areas, rest = table.column("area"), model.spring_table.column("rest_length")
+        slots, area_sums = [], []
+        for i, j in edges:
+            slot = self.spring_between(i, j) if model.active[i] and model.active[j] else None
+            if slot is not None and rest[slot] > 0:
+                slots.append(slot)
+                area_sums.append(sum(areas[t] for t in self.triangles_with_edge(i, j)))
+        if slots:
+            material = model.material
+            k = van_gelder_stiffness(material.youngs_modulus, material.thickness, np.array(area_sums),
+                                     rest[slots] ** 2)
+            model.spring_table.set("stiffness", slots, k)

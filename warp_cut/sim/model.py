@@ -116,6 +116,9 @@ class TissueModel:
             "pairs": np.zeros((0, 2), np.int64), "force": np.zeros(0),
             "smoothing": np.zeros(0)}, key="pairs")
         self.material = material
+        self.stiffness_model = "constant"
+        """How springs made later (by a cut) get their stiffness: ``"constant"`` (the material's
+        K) or ``"material"`` (van Gelder, from E, thickness and their triangles)."""
         self.topology_version = 0
 
     # ----------------------------------------------------------------- node views

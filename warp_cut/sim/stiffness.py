@@ -19,10 +19,16 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["STIFFNESS_MODELS", "material_stiffness"]
+__all__ = ["STIFFNESS_MODELS", "material_stiffness", "van_gelder_stiffness"]
 
 STIFFNESS_MODELS = ("constant", "material")
 """``[material] stiffness_model`` values: the paper's constant K, or derived from E and t."""
+
+
+def van_gelder_stiffness(youngs_modulus: float, thickness: float, area_sum, length_sq):
+    """k = E t sum|T| / |e|^2 [N/m] for edges with adjacent triangle area ``area_sum`` [m^2] and
+    squared length ``length_sq`` [m^2] (scalars or arrays)."""
+    return youngs_modulus * thickness * np.asarray(area_sum) / np.asarray(length_sq)
 
 
 def material_stiffness(points, triangles, springs, youngs_modulus: float, thickness: float,
@@ -55,5 +61,5 @@ def material_stiffness(points, triangles, springs, youngs_modulus: float, thickn
     length2 = np.sum((pts[spr[:, 1]] - pts[spr[:, 0]]) ** 2, axis=1)
     k = np.broadcast_to(np.asarray(fallback, dtype=np.float64), (len(spr),)).copy()
     has = (area_sum > 0) & (length2 > 0)
-    k[has] = youngs_modulus * thickness * area_sum[has] / length2[has]
+    k[has] = van_gelder_stiffness(youngs_modulus, thickness, area_sum[has], length2[has])
     return k
