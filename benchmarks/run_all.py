@@ -17,7 +17,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import warp as wp  # noqa: E402
 
-wp.config.quiet = True
+from warp_cut.sim.warp_config import quiet_warp  # noqa: E402
+
+quiet_warp()
 
 import bench_compile  # noqa: E402
 import bench_cut_latency  # noqa: E402
