@@ -497,6 +497,7 @@ def _check_spring_lengths(p, spr, usable, min_length: float, found: _Problems) -
 
 
 def _nanmin(x: np.ndarray) -> float:
+    """Smallest finite value of ``x`` (NaN if none)."""
     x = x[np.isfinite(x)]
     return float(x.min()) if x.size else float("nan")
 
