@@ -16,6 +16,7 @@ Results: benchmarks/results/mesh_checks.csv and .md.
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 
@@ -48,6 +49,7 @@ def check(mesh: dict):
 def run(quick: bool = False) -> list[dict]:
     sides = SIDES[:3] if quick else SIDES
     repeats = 3 if quick else 5
+    load = os.getloadavg()[0]
     meshes = {side: grid(side) for side in sides}
     for mesh in meshes.values():  # correctness first: a slow check that is wrong measures nothing
         report = check(mesh)
@@ -78,7 +80,8 @@ def run(quick: bool = False) -> list[dict]:
     write_markdown("mesh_checks", "Mesh checks: time against mesh size",
                    f"check_mesh with every check on, grid meshes, {repeats} interleaved repeats "
                    "(median, min, max). growth_exponent: slope of log(time) over log(triangles) "
-                   "from the row above (1 = linear).\n\n" + markdown_table(rows))
+                   "from the row above (1 = linear). The machine may be shared: 1-minute load average "
+                   f"{load:.1f} on {os.cpu_count()} cores when the run started.\n\n" + markdown_table(rows))
     return rows
 
 
