@@ -1,0 +1,1 @@
+"""Surface meshes: generators, checks and the geometry that lives on them."""

@@ -1,0 +1,138 @@
+"""Validity of a surface mesh, when generated and after every cut event.
+
+The one place this package reaches the mesh checker (``check_mesh``, which may move from
+``warp_cut.mesh_checks`` to ``warp_cut.mesh.checks``): everything else imports it from here.
+
+* ``surface_problems`` - a generated ``Surface``: ``check_mesh`` (indices, duplicates,
+  degenerate triangles, winding, manifold edges, springs = edges), triangle normals against
+  the analytic normal, points on the analytic surface, trimesh's winding and edge-use checks,
+  and the expected topology (a disk or an open tube).
+* ``cut_problems`` - a cut simulation after an event: ``check_mesh`` with masses and the mass
+  balance (density x thickness x the sum of the triangles' rest areas), links only between
+  live nodes, the device mirror of springs and node flags equal to the model's, the explicit
+  integrator's substep within its safety fraction of the stable step kept up to date, no
+  non-finite velocity, and (given the Surface) no triangle turned against the analytic normal
+  (reported apart for the triangles the cut made and the original ones the motion turned).
+
+Every problem is a string starting with the name of the check that failed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from ..mesh_checks import check_mesh, edges_of, triangle_normals
+from .triangulate import topology_problems
+
+__all__ = ["check_mesh", "surface_problems", "cut_problems", "flipped_triangles"]
+
+
+def flipped_triangles(points, triangles, chart) -> np.ndarray:
+    """Rows of triangles (t, 3) whose normal (points (n, 3) [m]) points against the chart's
+    outward normal at the triangle's centroid (degenerate triangles are not counted)."""
+    p = np.asarray(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    if not len(tri):
+        return np.zeros(0, dtype=np.int64)
+    centroid = p[tri].mean(axis=1)
+    reference = chart.normal(chart.uv_of(centroid))
+    cross = np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]])
+    return np.flatnonzero(np.einsum("ij,ij->i", cross, reference) < 0.0)
+
+
+def _trimesh_problems(points, triangles) -> list[str]:
+    mesh = trimesh.Trimesh(points, triangles, process=False)
+    problems = []
+    if not mesh.is_winding_consistent:
+        problems.append("trimesh_winding: trimesh finds the winding inconsistent")
+    _, counts = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
+    if (counts > 2).any():
+        problems.append(f"trimesh_edges: {int((counts > 2).sum())} edges used more than twice")
+    return problems
+
+
+def surface_problems(surface, *, tolerance: float = 1e-9) -> list[str]:
+    """Why a generated Surface is not a valid skin mesh ([] if it is)."""
+    pts, tri = surface.points, surface.triangles
+    report = check_mesh(pts, tri, edges_of(tri), min_area=1e-6 * surface.spacing ** 2)
+    problems = list(report.problems)
+    flipped = flipped_triangles(pts, tri, surface.chart)
+    if len(flipped):
+        problems.append(f"tri_flipped: {len(flipped)} triangles against the analytic normal, "
+                        f"first {flipped[:5].tolist()}")
+    off = np.abs(surface.offset(pts)).max()
+    if not off <= tolerance:
+        problems.append(f"points_on_surface: a node lies {off:.3g} m off the analytic surface")
+    problems += _trimesh_problems(pts, tri)
+    problems += [f"topology: {p}" for p in topology_problems(tri, len(pts), surface.border_loops)]
+    return problems
+
+
+def _device_problems(sim) -> list[str]:
+    model, dm = sim.model, sim.device_model
+    problems = []
+    pairs = model.spring_table.column("pairs").ravel().astype(np.int32)
+    mirror = dm.spring_indices.numpy()[: len(pairs)]
+    if not np.array_equal(mirror, pairs):
+        problems.append(f"device_springs: {int((mirror != pairs).sum())} device spring indices "
+                        "differ from the model's pairs")
+    flags = dm.node_flags.numpy()[: model.node_count] & 1
+    if not np.array_equal(flags, model.active.astype(flags.dtype)):
+        problems.append(f"device_flags: {int((flags != model.active).sum())} device node flags "
+                        "differ from the model's live nodes")
+    return problems
+
+
+def _step_problems(sim) -> list[str]:
+    """The explicit integrator's substep within the safety fraction of the stable step kept
+    up to date edit by edit. (The kept step itself is not compared with a recomputation here:
+    its rows carry the geometric factor of the positions at the edit that last touched them,
+    so it equals a full recomputation only on a tissue at rest, as in tests/test_cutting.py.)"""
+    if sim.integrator != "semi_implicit":
+        return []
+    limit = sim.step_limit.step
+    if not limit > 0:  # inf is legal: no free node has a spring
+        return [f"stable_step: the kept stable step is {limit!r} s"]
+    if sim.substep > sim.safety * limit * (1.0 + 1e-9):
+        return [f"step_budget: substep {sim.substep:.6g} s exceeds {sim.safety} x the stable step {limit:.6g} s"]
+    return []
+
+
+def cut_problems(sim, surface=None) -> list[str]:
+    """Why the cut simulation ``sim`` holds an invalid tissue now ([] if it does not)."""
+    model = sim.model
+    areal = model.material.density * model.material.thickness
+    x = sim.positions
+    report = check_mesh(x, model.triangles, model.springs, active=model.active,
+                        masses=model.masses, expected_total_mass=areal * model.triangle_areas.sum())
+    problems = list(report.problems)
+    links = model.links
+    if len(links) and not model.active[links.ravel()].all():
+        problems.append("link_dead_node: a residual link joins a deleted node")
+    v = sim.velocities[model.active]
+    if not np.isfinite(v).all():
+        problems.append("velocity_finite: a live node has a non-finite velocity")
+    problems += _device_problems(sim) + _step_problems(sim)
+    if surface is not None:
+        problems += _flip_problems(sim, x, surface)
+    return problems
+
+
+def _flip_problems(sim, x, surface) -> list[str]:
+    """Triangles turned against the analytic normal: ``tri_flipped_cut`` for those the cut
+    made, ``tri_flipped_tissue`` for original ones the motion turned over."""
+    model = sim.model
+    flipped = flipped_triangles(x, model.triangles, surface.chart)
+    if not len(flipped):
+        return []
+    slots = model.triangle_table.live_slots()[flipped]
+    made = np.isin(slots, np.fromiter(sim.cutter.new_triangles, dtype=np.int64)) \
+        if sim.cutter is not None else np.zeros(len(slots), bool)
+    out = []
+    for name, mask, what in (("tri_flipped_cut", made, "made by the cut"),
+                             ("tri_flipped_tissue", ~made, "of the original tissue")):
+        if mask.any():
+            out.append(f"{name}: {int(mask.sum())} triangles {what} against the analytic normal "
+                       f"(slots {slots[mask][:5].tolist()})")
+    return out
