@@ -34,7 +34,8 @@ class StrokeResult:
     incisions: int = 0
     """Incisions the stroke started (one stroke should make one)."""
     unfilled_holes: int = 0
-    """Holes the cutter left open after the tool had left (``cutter.unfilled_holes``)."""
+    """Holes the stroke's incisions left open after the tool had left (their part of
+    ``cutter.unfilled_holes``)."""
     coverage: float = float("nan")
     curve_coverage: float = float("nan")
     lip_deviation_max: float = float("nan")
@@ -75,19 +76,20 @@ def _drive(sim, stroke, surface, result, check: bool, settle: float) -> None:
     settle_steps = max(1, math.ceil(settle / sim.dt))
     for k in range(steps + settle_steps):
         version, events = model.topology_version, cutter.totals["events"]
+        triangles = model.triangle_table.count
         sim.step(tool=pose if k < steps else None)
         result.events += cutter.totals["events"] - events
         if model.topology_version != version:
             result.edits += 1
             if check:
-                _record(result, cut_problems(sim, surface), sim.time)
+                _record(result, cut_problems(sim, surface, first_new_triangle=triangles), sim.time)
 
 
 def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
     cutter, model = sim.cutter, sim.model
     result.incisions = len(cutter.incisions) - before["incisions"]
-    result.unfilled_holes = cutter.unfilled_holes
     mine = cutter.incisions[before["incisions"]:]
+    result.unfilled_holes = sum(len(inc.open_chains) for inc in mine)
     tol = coverage_tolerance(surface.spacing, stroke.radius)
     result.coverage = coverage(stroke, surface, model.points, wound_edges(model, border_keys), tol)
     result.curve_coverage = curve_coverage(stroke, surface, [np.array(i.path) for i in mine], tol)

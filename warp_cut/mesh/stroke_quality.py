@@ -6,9 +6,12 @@ Definitions (the measuring stick for cuts on curved and irregular skin):
   not on the tissue's border when it was made (the lips of every incision, and the rims of
   holes left open).
 * coverage - the fraction of the stroke's ideal in-skin trace (``Stroke.trace``, from where
-  the tool axis enters the skin to where it leaves, sampled every ``spacing / 20`` of arc length)
+  the tool axis enters the skin to where it leaves, cut into pieces of about ``spacing / 20``
+  of arc length, sampled at their middles)
   at which the skin is open: a sample is covered when wound-border edges pass within
-  ``tol`` of it on both sides of the trace (left and right of the travel direction). The test
+  ``tol`` of it strictly on both sides of the trace (left and right of the travel direction,
+  so the trace beyond the end of a slit, where both sides' nearest point is the slit's end
+  node, is not open). The test
   is made in the surface's parameter plane with the nodes' rest positions (where the cut made
   them), so neither sag nor the wound gaping moves the lips away: the question is whether
   the material was separated along the path. ``tol`` = 0.5 spacing + the lip offset
@@ -23,6 +26,8 @@ Definitions (the measuring stick for cuts on curved and irregular skin):
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..classes import NodeClass
@@ -31,6 +36,12 @@ from .triangulate import border_loops, boundary_edges
 
 __all__ = ["original_border", "wound_edges", "coverage", "curve_coverage", "lip_deviation",
            "new_slivers", "segment_distances", "border_loop_count", "SLIVER_DEG"]
+
+SIDE_FRACTION = 1e-9
+"""A wound point counts as left (right) of the trace when it lies strictly (more than this
+fraction of the spacing, a rounding margin) to that side: beyond the end of a slit the
+closest wound point on either side is the slit's end node, on one side of the trace at most,
+so the trace is not taken as open beyond the slit, while inside it the two lips are."""
 
 SLIVER_DEG = 10.0
 """A triangle whose smallest angle is below this [deg] is a sliver (SPEC section 4)."""
@@ -61,8 +72,10 @@ def segment_distances(points, a, b) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _trace_samples(stroke, spacing: float):
-    """(uv samples (m, 2), unit travel directions in uv (m, 2)) every spacing / 20 of arc length."""
-    s = np.arange(0.0, stroke.length + 1e-12, spacing / 20.0)
+    """(uv samples (m, 2), unit travel directions in uv (m, 2)) at the middles of pieces of
+    about spacing / 20 of arc length (so each sample stands for an equal length)."""
+    count = max(1, math.ceil(stroke.length / (spacing / 20.0)))
+    s = (np.arange(count) + 0.5) * (stroke.length / count)
     uv = np.column_stack([np.interp(s, stroke.arclength, stroke.path.uv[:, c]) for c in range(2)])
     d = np.gradient(uv, axis=0) if len(uv) > 1 else np.array([[1.0, 0.0]])
     return uv, d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
@@ -81,7 +94,8 @@ def coverage(stroke, surface, rest_points, wound, tol: float) -> float:
         rel = closest - uv[chunk][:, None, :]
         side = direction[chunk][:, None, 0] * rel[..., 1] - direction[chunk][:, None, 1] * rel[..., 0]
         near = dist <= tol
-        covered[chunk] = (near & (side >= 0)).any(axis=1) & (near & (side <= 0)).any(axis=1)
+        eps = SIDE_FRACTION * surface.spacing
+        covered[chunk] = (near & (side > eps)).any(axis=1) & (near & (side < -eps)).any(axis=1)
     return float(covered.mean())
 
 

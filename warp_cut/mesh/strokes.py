@@ -84,9 +84,8 @@ def zigzag(start, heading: float, length: float, amplitude: float, wavelength: f
     if not (amplitude >= 0 and wavelength > 0):
         raise InputError(f"zigzag amplitude must be >= 0 and wavelength > 0 m, got {amplitude}, {wavelength}")
     s = _samples(length)
-    phase = (s / wavelength) % 1.0
-    lateral = amplitude * (1.0 - 4.0 * np.abs(phase - 0.25))  # 0 -> A -> 0 -> -A -> 0
-    width = max(1, int(round(0.1 * wavelength / (s[1] - s[0]))))
+    lateral = amplitude * (4.0 * np.abs((s / wavelength + 0.75) % 1.0 - 0.5) - 1.0)  # 0, A, 0, -A, 0
+    width = max(1, int(round(0.05 * wavelength / (s[1] - s[0]))))
     padded = np.pad(lateral, width, mode="edge")
     lateral = np.convolve(padded, np.ones(2 * width + 1) / (2 * width + 1), mode="same")[width:-width]
     lateral -= lateral[0]
@@ -132,10 +131,10 @@ class Stroke:
         self.tilt, self.radius, self.depth = float(tilt), float(radius), float(depth)
         self.speed, self.tool_length = float(speed), float(tool_length)
         self.plunge_speed = float(plunge_speed or max(2.0 * speed, 0.02))
-        self.margin = float(surface.depth(path.uv).min())
+        self.border_distance = float(surface.depth(path.uv).min())
         """Smallest distance [m] of the path from the border of the mesh's parameter domain."""
-        if self.margin < 0:
-            raise InputError(f"the stroke's path leaves the mesh (by {-self.margin:.3g} m)")
+        if self.border_distance < 0:
+            raise InputError(f"the stroke's path leaves the mesh (by {-self.border_distance:.3g} m)")
         self._frame(surface, path.uv)
         self.reach = self.depth / math.sin(self.tilt)
         """Distance [m] from the surface point to the tip, along the axis."""

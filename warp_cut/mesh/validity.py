@@ -12,7 +12,8 @@ The one place this package reaches the mesh checker (``check_mesh``, which may m
   live nodes, the device mirror of springs and node flags equal to the model's, the explicit
   integrator's substep within its safety fraction of the stable step kept up to date, no
   non-finite velocity, and (given the Surface) no triangle turned against the analytic normal
-  (reported apart for the triangles the cut made and the original ones the motion turned).
+  (reported apart for the triangles the latest edit made, those earlier edits made and the
+  original ones: only the first are wound wrong by the cut itself).
 
 Every problem is a string starting with the name of the check that failed.
 """
@@ -25,7 +26,12 @@ import trimesh
 from ..mesh_checks import check_mesh, edges_of, triangle_normals
 from .triangulate import topology_problems
 
-__all__ = ["check_mesh", "surface_problems", "cut_problems", "flipped_triangles"]
+__all__ = ["check_mesh", "surface_problems", "cut_problems", "flipped_triangles", "FOLD_CHECKS"]
+
+FOLD_CHECKS = ("tri_flipped_cut", "tri_flipped_tissue")
+"""Checks that report triangles turned over by the motion after they were made (a mass-spring
+sheet has no resistance to folding: a triangle pushed across its neighbours by the tool stays
+folded), not a wrong edit; reported apart from the invariants."""
 
 
 def flipped_triangles(points, triangles, chart) -> np.ndarray:
@@ -99,8 +105,10 @@ def _step_problems(sim) -> list[str]:
     return []
 
 
-def cut_problems(sim, surface=None) -> list[str]:
-    """Why the cut simulation ``sim`` holds an invalid tissue now ([] if it does not)."""
+def cut_problems(sim, surface=None, *, first_new_triangle: int | None = None) -> list[str]:
+    """Why the cut simulation ``sim`` holds an invalid tissue now ([] if it does not).
+    ``first_new_triangle``: triangle slots from this one on were made by the latest edit
+    (their orientation is reported apart, see ``_flip_problems``)."""
     model = sim.model
     areal = model.material.density * model.material.thickness
     x = sim.positions
@@ -115,13 +123,15 @@ def cut_problems(sim, surface=None) -> list[str]:
         problems.append("velocity_finite: a live node has a non-finite velocity")
     problems += _device_problems(sim) + _step_problems(sim)
     if surface is not None:
-        problems += _flip_problems(sim, x, surface)
+        problems += _flip_problems(sim, x, surface, first_new_triangle)
     return problems
 
 
-def _flip_problems(sim, x, surface) -> list[str]:
-    """Triangles turned against the analytic normal: ``tri_flipped_cut`` for those the cut
-    made, ``tri_flipped_tissue`` for original ones the motion turned over."""
+def _flip_problems(sim, x, surface, first_new) -> list[str]:
+    """Triangles turned against the analytic normal: ``tri_flipped_new`` for those the latest
+    edit made (wound wrong when made: a cut error), ``tri_flipped_cut`` for those an earlier
+    edit made and ``tri_flipped_tissue`` for original ones (both turned over since, by the
+    motion, e.g. the tool pushing nodes across each other)."""
     model = sim.model
     flipped = flipped_triangles(x, model.triangles, surface.chart)
     if not len(flipped):
@@ -129,9 +139,11 @@ def _flip_problems(sim, x, surface) -> list[str]:
     slots = model.triangle_table.live_slots()[flipped]
     made = np.isin(slots, np.fromiter(sim.cutter.new_triangles, dtype=np.int64)) \
         if sim.cutter is not None else np.zeros(len(slots), bool)
+    new = slots >= (first_new if first_new is not None else np.iinfo(np.int64).max)
     out = []
-    for name, mask, what in (("tri_flipped_cut", made, "made by the cut"),
-                             ("tri_flipped_tissue", ~made, "of the original tissue")):
+    for name, mask, what in (("tri_flipped_new", new, "made by the latest edit"),
+                             ("tri_flipped_cut", made & ~new, "made by an earlier edit"),
+                             ("tri_flipped_tissue", ~made & ~new, "of the original tissue")):
         if mask.any():
             out.append(f"{name}: {int(mask.sum())} triangles {what} against the analytic normal "
                        f"(slots {slots[mask][:5].tolist()})")
