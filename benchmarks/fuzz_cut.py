@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
+import traceback
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +38,7 @@ from warp_cut.mesh.stroke_quality import original_border
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fuzz_cases import KINDS, NAMED, build_stroke, build_surface, case_seed, make_case  # noqa: E402
 from fuzz_report import write_report  # noqa: E402
+from fuzz_scene import run_scene_case  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_OUT = HERE / "results" / "fuzz.md"
@@ -96,8 +97,6 @@ def _case_failure(case, message, tb) -> dict:
 
 def run_case(case: dict, *, strokes: int | None = None, log=print) -> list[dict]:
     """Run a case's strokes (the first ``strokes`` of them); one row per stroke."""
-    import traceback
-
     try:
         surface = build_surface(case["surface"])
         model, sim = make_simulator(case, surface)
@@ -146,8 +145,6 @@ def run_fuzz(args) -> list[dict]:
 
 def run_named(names) -> list[dict]:
     """The named cases (a)-(e) from ``fuzz_cases.NAMED`` and (f), the bundled scene."""
-    from fuzz_scene import run_scene_case
-
     rows = []
     for name in names:
         if name == "f_scene_no_damping":

@@ -11,6 +11,9 @@ import numpy as np
 
 from warp_cut.mesh.validity import FOLD_CHECKS
 
+ROOT = str(Path(__file__).resolve().parent.parent) + "/"
+"""The repository root, stripped from file names in tracebacks."""
+
 COVERED = 0.95
 """A stroke counts as covered when at least this fraction of its trace is open."""
 
@@ -92,6 +95,31 @@ def _by_kind(rows) -> list[str]:
     return out
 
 
+def _breakdown(rows) -> list[str]:
+    """Coverage, splits and holes by tool radius / spacing, by first vs crossing stroke, by
+    integrator: where the current cut loses the stroke."""
+    ran = _ran(rows)
+    groups = {
+        "tool radius < 0.5 spacing": lambda r: r["radius_mm"] < 0.5 * r["spacing_mm"],
+        "tool radius 0.5-1 spacing": lambda r: 0.5 * r["spacing_mm"] <= r["radius_mm"] < r["spacing_mm"],
+        "tool radius >= 1 spacing": lambda r: r["radius_mm"] >= r["spacing_mm"],
+        "tilt < 45 deg": lambda r: r["tilt_deg"] < 45.0,
+        "tilt >= 45 deg": lambda r: r["tilt_deg"] >= 45.0,
+        "first stroke of a case": lambda r: r["stroke"] == 0,
+        "later stroke (crosses an earlier cut)": lambda r: r["stroke"] > 0,
+    }
+    for name in sorted({r["integrator"] for r in ran}):
+        groups[f"integrator {name}"] = lambda r, name=name: r["integrator"] == name
+    out = ["| strokes | n | coverage median | covered | split | holes | no incision |", "|---|---|---|---|---|---|---|"]
+    for label, test in groups.items():
+        part = [r for r in ran if test(r)]
+        if part:
+            s = _stats(part)
+            out.append(f"| {label} | {s['strokes']} | {_fmt(s['cov_median'])} | {s['covered']} | "
+                       f"{s['split']} | {s['holes']} | {s['none']} |")
+    return out
+
+
 def _violations(rows) -> list[str]:
     strokes, events, example = Counter(), Counter(), {}
     for r in _ran(rows):
@@ -124,7 +152,7 @@ def _exceptions(rows) -> list[str]:
     for key, items in sorted(groups.items(), key=lambda kv: -len(kv[1])):
         first = items[0]
         where = first["traceback"].strip().splitlines()
-        frames = [ln.strip() for ln in where if ln.strip().startswith("File ")][-2:]
+        frames = [ln.strip().replace(ROOT, "") for ln in where if ln.strip().startswith("File ")][-2:]
         out.append(f"- **{len(items)}x** `{first['exception'][:200]}`  ")
         out.append(f"  at {' <- '.join(reversed(frames))}  " if frames else "  ")
         out.append("  reproducers: " + ", ".join(f"`{r['reproducer']}`" for r in items[:3]))
@@ -176,6 +204,7 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
         lines += ["", ""] + _named(rows)
     else:
         lines += ["", "## By mesh kind", ""] + _by_kind(rows)
+        lines += ["", "## By stroke", ""] + _breakdown(rows)
     lines += ["", "## Invariant violations", ""] + _violations(rows)
     lines += ["", "## Exceptions (grouped by message, numbers masked)", ""] + _exceptions(rows)
     lines += ["", "## Other failing strokes (reproducers)", ""]

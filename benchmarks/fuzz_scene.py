@@ -54,8 +54,6 @@ class KeyframeStroke:
 
 def run_scene_case(name: str, overrides: list[str], reproducer: str, scene_name="straight_incision"):
     """One row: the bundled scene with ``overrides``, checked after every edit."""
-    import traceback
-
     scene = load_scene(scene_name, overrides)
     model, sim, path, _ = prepare_simulation(scene)
     surface = on_plane(model.points, model.triangles, scene.tissue["spacing"])

@@ -146,3 +146,31 @@ def test_the_cut_opens_the_whole_stroke(case):
 def test_new_triangles_follow_the_surface(case):
     _, result = cut(case)
     assert "tri_flipped_new" not in result.violations
+
+
+def test_the_checks_catch_a_broken_tissue():
+    """Negative control: the invariants the fuzz asserts do fail on a broken tissue."""
+    from warp_cut.mesh.validity import cut_problems
+
+    surf = S.flat_grid(0.012, 0.002)
+    sim = wc.Simulator(surf.model(), dt=1e-3, gravity=None, device=DEVICE, cutting=True)
+    model = sim.model
+    assert cut_problems(sim, surf) == []
+
+    def names():
+        return {p.split(":")[0] for p in cut_problems(sim, surf)}
+
+    corners = model.triangle_table.column("corners")
+    original = corners[3].copy()
+    corners[3] = original[[0, 2, 1]]  # wound the other way
+    assert {"winding_inconsistent", "tri_flipped_tissue"} <= names()
+    corners[3] = original
+    mass = model.masses[5]
+    model.node_table.set("masses", [5], 2.0 * mass)
+    assert "mass_total" in names()
+    model.node_table.set("masses", [5], mass)
+    mirror = sim.device_model.spring_indices.numpy()  # a view of the CPU array
+    mirror[0], keep = mirror[0] + 1, mirror[0]
+    assert "device_springs" in names()
+    mirror[0] = keep
+    assert cut_problems(sim, surf) == []

@@ -16,7 +16,7 @@ import trimesh
 from warp_cut import InputError
 from warp_cut.mesh import surfaces as S
 from warp_cut.mesh.triangulate import boundary_edges
-from warp_cut.mesh_checks import triangle_min_angles
+from warp_cut.mesh.checker import triangle_min_angles
 
 H = 0.002
 

@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from ..classes import NodeClass
-from ..mesh_checks import triangle_min_angles
+from .checker import triangle_min_angles
 from .triangulate import border_loops, boundary_edges
 
 __all__ = ["original_border", "wound_edges", "coverage", "curve_coverage", "lip_deviation",

@@ -25,8 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..control import Tool, ToolPath
-from ..errors import InputError
+from .. import InputError, Tool, ToolPath
 
 __all__ = ["ParamPath", "line", "arc", "zigzag", "Stroke", "inside_cylinder"]
 

@@ -19,8 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..model import TissueModel
+from .. import InputError, TissueModel
 from .charts import Cylinder, DiskDomain, Plane, RectDomain, Saddle, Sphere
 from .triangulate import delaunay, disk_points, jitter_lattice, lattice, trim_border_slivers
 

@@ -12,8 +12,8 @@ import math
 import numpy as np
 from matplotlib.tri import Triangulation
 
-from ..errors import InputError
-from ..triangle_geometry import triangle_min_angles
+from .. import InputError
+from .checker import triangle_min_angles
 
 __all__ = ["lattice", "jitter_lattice", "disk_points", "delaunay", "trim_border_slivers",
            "boundary_edges", "border_loops", "topology_problems"]

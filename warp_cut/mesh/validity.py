@@ -1,7 +1,6 @@
 """Validity of a surface mesh, when generated and after every cut event.
 
-The one place this package reaches the mesh checker (``check_mesh``, which may move from
-``warp_cut.mesh_checks`` to ``warp_cut.mesh.checks``): everything else imports it from here.
+The mesh checker comes through ``warp_cut.mesh.checker`` (the one place that names its module).
 
 * ``surface_problems`` - a generated ``Surface``: ``check_mesh`` (indices, duplicates,
   degenerate triangles, winding, manifold edges, springs = edges), triangle normals against
@@ -23,10 +22,10 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from ..mesh_checks import check_mesh, edges_of, triangle_normals
+from .checker import check_mesh, edges_of
 from .triangulate import topology_problems
 
-__all__ = ["check_mesh", "surface_problems", "cut_problems", "flipped_triangles", "FOLD_CHECKS"]
+__all__ = ["surface_problems", "cut_problems", "flipped_triangles", "FOLD_CHECKS"]
 
 FOLD_CHECKS = ("tri_flipped_cut", "tri_flipped_tissue")
 """Checks that report triangles turned over by the motion after they were made (a mass-spring
