@@ -27,7 +27,7 @@ bench: $(STAMP)
 
 # Cut fuzz (not part of `make test`): random meshes and strokes, every invariant after every
 # cut event; report in benchmarks/results/fuzz.md (+ fuzz.csv). FUZZ_ARGS="--quick --events 300".
-FUZZ_ARGS ?= --events 2500
+FUZZ_ARGS ?= --events 3000 --seed 1
 fuzz: $(STAMP)
 	nice $(PY) benchmarks/fuzz_cut.py $(FUZZ_ARGS)
 	nice $(PY) benchmarks/fuzz_cut.py --named

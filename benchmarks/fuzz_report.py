@@ -11,6 +11,9 @@ import numpy as np
 
 from warp_cut.mesh.validity import FOLD_CHECKS
 
+WOUND_WRONG = "tri_flipped_new"
+"""The check of triangles wound against the surface when the cut made them."""
+
 ROOT = str(Path(__file__).resolve().parent.parent) + "/"
 """The repository root, stripped from file names in tracebacks."""
 
@@ -48,7 +51,8 @@ def _stats(rows) -> dict:
     cov = [r["coverage"] for r in ran]
     return {
         "strokes": len(ran), "events": sum(r["events"] for r in rows),
-        "violating": sum(any(c not in FOLD_CHECKS for c in _checks(r)) for r in ran),
+        "violating": sum(any(c not in FOLD_CHECKS + (WOUND_WRONG,) for c in _checks(r)) for r in ran),
+        "wound_wrong": sum(WOUND_WRONG in _checks(r) for r in ran),
         "folded": sum(any(c in FOLD_CHECKS for c in _checks(r)) for r in ran),
         "exceptions": sum(bool(r["exception"]) for r in rows),
         "holes": sum(r["unfilled_holes"] > 0 for r in ran if not r["exception"]),
@@ -68,7 +72,11 @@ def _totals(rows, wall) -> list[str]:
     return [
         f"- cases: {cases}, strokes run: {s['strokes']} (skipped: {skipped}), wall time {wall / 60:.1f} min",
         f"- cut events: **{s['events']}**, each followed by every invariant check",
-        f"- strokes with an invariant violation: **{s['violating']}**",
+        f"- strokes with a mesh invariant violated (check_mesh: indices, duplicates, degenerate "
+        f"triangles, winding, manifold edges, springs = edges, masses; mass balance, links between live "
+        f"nodes, device mirror, step budget, finite state): **{s['violating']}**",
+        f"- strokes in which the cut made a triangle wound against the surface ({WOUND_WRONG}): "
+        f"**{s['wound_wrong']}**",
         f"- strokes after which triangles were folded over by the motion ({', '.join(FOLD_CHECKS)}; "
         f"not an edit error, see below): {s['folded']}",
         f"- exceptions: **{s['exceptions']}**",
@@ -84,12 +92,13 @@ def _totals(rows, wall) -> list[str]:
 
 def _by_kind(rows) -> list[str]:
     kinds = sorted({r["kind"] for r in rows})
-    head = ("| kind | strokes | events | violating | folded | exceptions | holes | split | no incision | "
-            "coverage median | coverage min | covered | p99 latency [ms] |")
-    out = [head, "|" + "---|" * 13]
+    head = ("| kind | strokes | events | invariant violated | wound wrong | folded | exceptions | holes | "
+            "split | no incision | coverage median | coverage min | covered | p99 latency [ms] |")
+    out = [head, "|" + "---|" * 14]
     for k in kinds:
         s = _stats([r for r in rows if r["kind"] == k])
-        out.append(f"| {k} | {s['strokes']} | {s['events']} | {s['violating']} | {s['folded']} | {s['exceptions']} | "
+        out.append(f"| {k} | {s['strokes']} | {s['events']} | {s['violating']} | {s['wound_wrong']} | "
+                   f"{s['folded']} | {s['exceptions']} | "
                    f"{s['holes']} | {s['split']} | {s['none']} | {_fmt(s['cov_median'])} | "
                    f"{_fmt(s['cov_min'])} | {s['covered']} | {_fmt(s['lat_p99'])} |")
     return out
@@ -197,7 +206,9 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
              "Coverage: fraction of the stroke's ideal in-skin trace at which wound-border edges pass "
              "within 0.5 spacing + 0.25 tool radius on both sides (parameter plane, rest positions; "
              "see warp_cut/mesh/stroke_quality.py). Holes: `cutter.unfilled_holes` after the tool left. "
-             "Split: the stroke started more than one incision.", "", "## Totals", ""]
+             "Split: the stroke started more than one incision. Latency: host time of each cut event "
+             "(`sim.cutter.latency_ms`, all stages) on the machine that ran the report; other load on it "
+             "inflates the tail.", "", "## Totals", ""]
     lines += _totals(rows, wall)
     if named:
         lines += ["", "## Cases", ""] + [f"- **{r['case']}**: {r.get('about', '')}" for r in rows]
@@ -205,7 +216,7 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
     else:
         lines += ["", "## By mesh kind", ""] + _by_kind(rows)
         lines += ["", "## By stroke", ""] + _breakdown(rows)
-    lines += ["", "## Invariant violations", ""] + _violations(rows)
+    lines += ["", "## Checks that failed", ""] + _violations(rows)
     lines += ["", "## Exceptions (grouped by message, numbers masked)", ""] + _exceptions(rows)
     lines += ["", "## Other failing strokes (reproducers)", ""]
     lines += _failures(rows, "holes open after the stroke", lambda r: r["unfilled_holes"] > 0)
