@@ -38,6 +38,7 @@ RULES = {
     "batch": {"errors", "sim", "io", "scene", "runner"},
     "cli": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene", "runner",
             "experiments", "batch"},
+    "verify": {"errors", "mesh", "sim", "cut"},
     "__init__": {"errors", "sim", "solvers", "cut", "simulator"},
 }
 """Part -> the parts it may import (module-level imports; a part may always import itself)."""

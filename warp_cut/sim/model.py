@@ -253,6 +253,12 @@ class TissueModel:
                                triangles=tri, material=material)
 
     @classmethod
+    def from_surface(cls, surface, *, material: Material | None = None, pinned="border") -> TissueModel:
+        """The tissue on a generated surface mesh (``warp_cut.mesh.surfaces``): springs = its
+        edges, lumped masses, its border pinned unless ``pinned`` says otherwise."""
+        return cls.from_triangles(surface.points, surface.triangles, material=material, pinned=pinned)
+
+    @classmethod
     def from_patch(cls, size=(0.10, 0.06), spacing: float = 2.0e-3, *,
                    material: Material | None = None, pinned="border") -> TissueModel:
         """A rectangular skin patch in the XY plane, centred on the origin (see skin_patch_mesh)."""
