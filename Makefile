@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out
 
-.PHONY: install demo test lint bench clean
+.PHONY: install demo test lint bench fuzz clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,13 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[bench]"
 	$(PY) benchmarks/run_all.py
+
+# Cut fuzz (not part of `make test`): random meshes and strokes, every invariant after every
+# cut event; report in benchmarks/results/fuzz.md (+ fuzz.csv). FUZZ_ARGS="--quick --events 300".
+FUZZ_ARGS ?= --events 3000 --seed 1
+fuzz: $(STAMP)
+	nice $(PY) benchmarks/fuzz_cut.py $(FUZZ_ARGS)
+	nice $(PY) benchmarks/fuzz_cut.py --named
 
 clean:
 	rm -rf $(VENV) $(OUT) build *.egg-info

@@ -19,6 +19,7 @@ import warp as wp
 from warp_cut import Material, Simulator, TissueModel, Tool
 from warp_cut.io.files import atomic_path
 from warp_cut.sim.ccd import ContinuousDetector
+from warp_cut.sim.warp_config import quiet_warp
 
 RESULTS = Path(__file__).parent / "results"
 
@@ -47,7 +48,7 @@ def measure(side: float, repeat: int = 200) -> dict:
 
 
 def main() -> int:
-    wp.config.quiet = True
+    quiet_warp()
     rows = [measure(0.059), measure(0.186)]
     result = {"rows": rows, "machine": {"platform": platform.platform(), "python": sys.version.split()[0],
                                         "warp": wp.__version__, "device": "cpu"}}

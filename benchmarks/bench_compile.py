@@ -19,10 +19,11 @@ SCRIPT = r"""
 import json, sys, time
 t0 = time.perf_counter()
 import warp as wp
-wp.config.quiet = True
 wp.init()
 t1 = time.perf_counter()
 from warp_cut import Simulator, TissueModel, Tool
+from warp_cut.sim.warp_config import quiet_warp
+quiet_warp()
 model = TissueModel.from_patch((0.10, 0.06), 0.002)
 model.add_residual_links([[0, 1]], [0.002])
 sim = Simulator(model, integrator=sys.argv[1])

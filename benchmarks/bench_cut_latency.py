@@ -17,10 +17,10 @@ import sys
 import time
 
 import numpy as np
-import warp as wp
 
 from warp_cut import Simulator, TissueModel
 from warp_cut.cut.cutter import STAGES, CutSettings
+from warp_cut.sim.warp_config import quiet_warp
 
 SIZES = {"1k": (0.07, 0.05), "10k": (0.22, 0.16), "100k": (0.70, 0.50)}
 
@@ -78,7 +78,7 @@ def main(argv=None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--out", default=str(pathlib.Path(__file__).parent / "results"))
     args = parser.parse_args(argv)
-    wp.config.log_level = getattr(wp, "LOG_WARNING", 30)
+    quiet_warp()
     run(repeats=args.repeats, out=args.out)
     return 0
 

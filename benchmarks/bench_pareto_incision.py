@@ -20,6 +20,7 @@ from common import markdown_table, write_csv, write_markdown
 
 from warp_cut.runner import run_scene
 from warp_cut.scene import load_scene
+from warp_cut.sim.warp_config import quiet_warp
 
 CASES = [  # (integrator, overrides)
     ("semi_implicit", ["solver.safety=0.9"]),
@@ -62,7 +63,5 @@ def run(quick: bool = False):
 
 
 if __name__ == "__main__":
-    import warp as wp
-
-    wp.config.log_level = getattr(wp, "LOG_WARNING", 30)
+    quiet_warp()
     run("--quick" in sys.argv[1:])

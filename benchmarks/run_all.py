@@ -17,10 +17,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import warp as wp  # noqa: E402
 
-wp.config.quiet = True
+from warp_cut.sim.warp_config import quiet_warp  # noqa: E402
+
+quiet_warp()
 
 import bench_compile  # noqa: E402
 import bench_cut_latency  # noqa: E402
+import bench_mesh_checks  # noqa: E402
 import bench_pareto  # noqa: E402
 import bench_pareto_incision  # noqa: E402
 import bench_realtime  # noqa: E402
@@ -36,7 +39,8 @@ def main(argv=None) -> int:
     parts = [("throughput", bench_throughput), ("pareto (hanging sheet)", bench_pareto),
              ("pareto (incision width curve)", bench_pareto_incision),
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
-             ("compile time", bench_compile), ("cut event latency", bench_cut_latency)]
+             ("compile time", bench_compile), ("cut event latency", bench_cut_latency),
+             ("mesh checks", bench_mesh_checks)]
     for name, module in parts:
         print(f"{name}:", flush=True)
         module.run(quick=quick)
@@ -53,7 +57,7 @@ def write_summary(seconds: float | None = None) -> None:
     if seconds is not None:
         summary.append(f"Total benchmark time: {seconds:.0f} s.")
     summary.append("")
-    for md in ("throughput", "realtime", "pareto_hanging_sheet", "stable_step", "compile"):
+    for md in ("throughput", "realtime", "pareto_hanging_sheet", "stable_step", "compile", "mesh_checks"):
         summary.append((RESULTS / f"{md}.md").read_text())
     (RESULTS / "summary.md").write_text("\n".join(summary))
 

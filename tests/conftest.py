@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 import warp as wp
 
-if hasattr(wp, "LOG_WARNING"):
-    wp.config.log_level = wp.LOG_WARNING
+from warp_cut.sim.warp_config import quiet_warp
+
+quiet_warp()
 wp.init()
 
 DEVICE = os.environ.get("WARP_CUT_TEST_DEVICE", "cpu")

@@ -77,3 +77,9 @@ def test_mesh_file_errors(tmp_path):
     bad.write_text("this is not a mesh\n")
     with pytest.raises(InputError, match="bad.obj"):
         TissueModel.from_mesh_file(bad)
+
+
+def test_from_triangles_rejects_a_triangle_with_a_repeated_node():
+    pts = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    with pytest.raises(InputError, match=r"triangle 1 \(2, 0, 2\) repeats a node"):
+        TissueModel.from_triangles(pts, [[0, 1, 2], [2, 0, 2]])

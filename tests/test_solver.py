@@ -15,8 +15,8 @@ from warp_cut.solvers import INTEGRATORS
 
 SCRIPT = r"""
 import json, sys
-import warp as wp
-wp.config.log_level = getattr(wp, "LOG_ERROR", 40)
+from warp_cut.sim.warp_config import quiet_warp
+quiet_warp()
 from warp_cut import Simulator, TissueModel, Tool
 from warp._src.context import user_modules
 integrator = sys.argv[1]

@@ -29,7 +29,7 @@ EXIT_SOME_FAILED, EXIT_INTERRUPTED = 1, 130
 
 
 def _cmd_run(args) -> int:
-    """Run a scene; write metrics, time series, pictures and (unless --no-usd) USD."""
+    """``warp-cut run``: run a scene; write metrics, time series, pictures and (unless --no-usd) USD."""
     scene = load_scene(args.scene, args.set)
     out = args.out or os.path.join("out", scene.name)
     result, written = run_to_directory(scene, out, usd=not args.no_usd, usd_path=args.usd,
@@ -45,6 +45,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_validate(args) -> int:
+    """``warp-cut validate``: load a scene and set it up without running it."""
     scene = load_scene(args.scene, args.set)
     model, sim, _, steps_per_frame = prepare_simulation(scene)
     print(f"{scene.path}: ok ({model.node_count} nodes, {model.spring_count} springs, "
@@ -54,6 +55,7 @@ def _cmd_validate(args) -> int:
 
 
 def _cmd_usd_check(args) -> int:
+    """``warp-cut usd-check``: check USD files; exit 1 if any has a problem."""
     bad = 0
     for path in args.paths:
         if not os.path.isfile(path):
@@ -68,11 +70,13 @@ def _cmd_usd_check(args) -> int:
 
 
 def _cmd_usd_flatten(args) -> int:
+    """``warp-cut usd-flatten``: resolve an export's chunk files into one USD file."""
     print(f"wrote {flatten_usd(args.source, args.target)}")
     return EXIT_OK
 
 
 def _cmd_experiment_collision(args) -> int:
+    """``warp-cut experiment collision``: the paper's collision experiment (Table 2, Fig. 7)."""
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise InputError(f"--out {args.out}: exists and is not a directory")
     cases = run_experiment(args.angles, args.speeds, t0=args.t0, rate=args.rate)
@@ -89,6 +93,7 @@ def _cmd_experiment_collision(args) -> int:
 
 
 def _cmd_batch(args) -> int:
+    """``warp-cut batch``: run a sweep; exit 1 if a scenario failed, 130 if interrupted."""
     if args.workers is not None and args.scheduler:
         raise InputError("--workers sizes the local pool; with --scheduler the cluster's "
                          "workers run the scenarios: give one of the two")
@@ -111,12 +116,14 @@ def _cmd_batch(args) -> int:
 
 
 def _cmd_report(args) -> int:
+    """``warp-cut report``: plots of a batch directory."""
     for path in plot_results(args.dir):
         print(f"  wrote {path}")
     return EXIT_OK
 
 
 def _numbers(text: str) -> list[float]:
+    """Comma-separated numbers of an option, e.g. ``--angles 30,40``."""
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
@@ -126,9 +133,8 @@ def _numbers(text: str) -> list[float]:
     return values
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="warp-cut", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+def _add_run(sub) -> None:
+    """The ``run`` and ``validate`` commands."""
     run = sub.add_parser("run", help="run a scene and write metrics and time series")
     run.add_argument("scene", nargs="?", default=None,
                      help="scene file or bundled scene name (default: the default scene)")
@@ -149,6 +155,10 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("scene")
     val.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
     val.set_defaults(func=_cmd_validate)
+
+
+def _add_usd(sub) -> None:
+    """The ``usd-check`` and ``usd-flatten`` commands."""
     chk = sub.add_parser("usd-check", help="check exported USD files time sample by time sample "
                                            "(exit 1 if a problem is found)")
     chk.add_argument("paths", nargs="+", metavar="FILE")
@@ -157,6 +167,10 @@ def build_parser() -> argparse.ArgumentParser:
     flat.add_argument("source")
     flat.add_argument("target")
     flat.set_defaults(func=_cmd_usd_flatten)
+
+
+def _add_experiment(sub) -> None:
+    """The ``experiment collision`` command."""
     exp = sub.add_parser("experiment", help="run one of the paper's experiments")
     exps = exp.add_subparsers(dest="experiment", required=True)
     col = exps.add_parser("collision", help="first-contact time and point at several cutting "
@@ -173,6 +187,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="simulation steps per second, the per-step test's rate (default 1000)")
     col.add_argument("--quiet", action="store_true", help="no summary")
     col.set_defaults(func=_cmd_experiment_collision)
+
+
+def _add_batch(sub) -> None:
+    """The ``batch`` and ``report`` commands."""
     bat = sub.add_parser("batch", help="run the scenarios of a sweep file; write results.csv")
     bat.add_argument("sweep", help="sweep file (TOML) or bundled sweep name")
     bat.add_argument("--out", help="output directory (default: out/<sweep name>)")
@@ -188,10 +206,27 @@ def build_parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="draw a batch's metrics against its parameters (PNG)")
     rep.add_argument("dir", help="batch output directory (holds results.csv)")
     rep.set_defaults(func=_cmd_report)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``warp-cut`` argument parser with every command."""
+    parser = argparse.ArgumentParser(prog="warp-cut", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    for add in (_add_run, _add_usd, _add_experiment, _add_batch):
+        add(sub)
     return parser
 
 
 def main(argv=None) -> int:
+    """Run the ``warp-cut`` command line.
+
+    Args:
+        argv: The arguments (default ``sys.argv[1:]``).
+
+    Returns:
+        The exit code: 0 success, 1 a check found problems or a batch scenario failed, 2 bad
+        input, 3 simulation unstable, 130 a batch was interrupted.
+    """
     args = build_parser().parse_args(argv)
     quiet_warp()
     try:

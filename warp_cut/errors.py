@@ -14,7 +14,17 @@ class InputError(WarpCutError, ValueError):
 
 
 class SceneError(InputError):
-    """A scene or sweep file is invalid; the message names the file, the key and the allowed range."""
+    """A scene or sweep file is invalid; the message names the file, the key and the allowed range.
+
+    Args:
+        path: The scene or sweep file (None for a scene built in memory).
+        key: The dotted key at fault, e.g. ``"solver.dt"``.
+        message: What is wrong and the allowed range.
+
+    Attributes:
+        path: The file as a string (``"<scene>"`` without one).
+        key: The dotted key at fault.
+    """
 
     def __init__(self, path, key: str, message: str):
         self.path = str(path) if path is not None else "<scene>"
@@ -27,7 +37,21 @@ class ToolStartsInside(InputError):
 
 
 class SimulationUnstable(WarpCutError, RuntimeError):
-    """The state became non-finite or ran away; raised before any NaN reaches an output."""
+    """The state became non-finite or ran away; raised before any NaN reaches an output.
+
+    Args:
+        node: The first bad node.
+        time: Simulated time [s] of the check that failed.
+        step: The integration substep used [s].
+        safe_step: The estimated stable step [s].
+        reason: What went wrong with the node (e.g. ``"has a non-finite position"``).
+
+    Attributes:
+        node: The first bad node.
+        time: Simulated time [s].
+        step: The integration substep used [s].
+        safe_step: The estimated stable step [s].
+    """
 
     def __init__(self, node: int, time: float, step: float, safe_step: float, reason: str):
         self.node = int(node)

@@ -52,8 +52,18 @@ MARGIN = 1e-4
 
 @dataclass
 class CollisionCase:
-    """One run: angle [deg], speed [m/s], and first-contact times [s] and points [m] (3,):
-    analytic, per-step test (``discrete``) and continuous detection (``ccd``)."""
+    """One run of the experiment.
+
+    Attributes:
+        angle_deg: Cutting angle [deg].
+        speed_m_s: Approach speed along the tool axis [m/s].
+        t_analytic: Analytic first-contact time [s].
+        point_analytic: Analytic first-contact point [m], shape (3,).
+        t_discrete: First contact by the per-step test [s] (None if not detected).
+        point_discrete: Its point [m], shape (3,) (None if not detected).
+        t_ccd: First contact by continuous detection [s] (None if not detected).
+        point_ccd: Its point [m], shape (3,) (None if not detected).
+    """
 
     angle_deg: float
     speed_m_s: float
@@ -65,18 +75,33 @@ class CollisionCase:
     point_ccd: np.ndarray | None
 
     def relative_error_pct(self, which: str) -> float | None:
+        """(t - t_analytic) / t_analytic [%] of ``"discrete"`` or ``"ccd"`` (None if not detected)."""
         t = getattr(self, f"t_{which}")
         return None if t is None else 100.0 * (t - self.t_analytic) / self.t_analytic
 
 
 def analytic_first_contact(points, angle_deg: float, speed: float, t0: float, radius: float):
-    """Closed-form first contact of the axially sliding tool with static nodes (n, 3) at z = 0.
+    """Closed-form first contact of the axially sliding tool with static nodes.
 
-    Returns (tip at t = 0 (3,) [m], axis unit vector (3,), first-contact point (3,) [m]); the
-    first contact is at t0 by construction. The axis is aimed near the node nearest the patch
-    centre: 0.3 r from it along x and, across the cut (y), the first of 0.05 r, 0.10 r, ... that
-    leaves some node in reach and every node at least ``MARGIN`` x r inside or outside it, so
-    no contact hinges on rounding. Raises InputError if no shift does."""
+    The first contact is at t0 by construction. The axis is aimed near the node nearest the
+    patch centre: 0.3 r from it along x and, across the cut (y), the first of 0.05 r, 0.10 r,
+    ... that leaves some node in reach and every node at least ``MARGIN`` x r inside or
+    outside it, so no contact hinges on rounding.
+
+    Args:
+        points: Node positions [m], shape (n, 3), at z = 0.
+        angle_deg: Cutting angle [deg].
+        speed: Approach speed [m/s].
+        t0: The first-contact time to arrange [s].
+        radius: Tool radius r [m].
+
+    Returns:
+        The tip at t = 0 [m], shape (3,); the axis unit vector, shape (3,); the first-contact
+        point [m], shape (3,).
+
+    Raises:
+        InputError: No aim leaves every node clear of the edge of the tool's reach.
+    """
     pts = np.asarray(points, dtype=np.float64)
     th = math.radians(angle_deg)
     a = np.array([math.cos(th), 0.0, math.sin(th)])
@@ -101,8 +126,22 @@ def analytic_first_contact(points, angle_deg: float, speed: float, t0: float, ra
 def run_case(angle_deg: float, speed: float, *, t0: float = 2.0, rate: float = 1000.0,
              size=(0.03, 0.03), spacing: float = 0.002, radius: float = 0.001,
              length: float = 0.04, device: str = "cpu") -> CollisionCase:
-    """Simulate one approach at ``rate`` [Hz] steps until the per-step test reports contact."""
+    """Simulate one approach, stepping at ``rate`` until the per-step test reports contact.
 
+    Args:
+        angle_deg: Cutting angle [deg].
+        speed: Approach speed [m/s].
+        t0: Analytic first-contact time [s].
+        rate: Step rate [Hz].
+        size: Patch width and height [m].
+        spacing: Patch node spacing [m].
+        radius: Tool radius [m].
+        length: Tool length [m].
+        device: Warp device.
+
+    Returns:
+        The analytic, per-step and continuous first contacts.
+    """
     model = TissueModel.from_patch(size, spacing, material=Material(), pinned="border")
     tip0, a, point = analytic_first_contact(model.points, angle_deg, speed, t0, radius)
     t_end = 2.0 * t0
@@ -120,7 +159,21 @@ def run_case(angle_deg: float, speed: float, *, t0: float = 2.0, rate: float = 1
 
 def run_experiment(angles=DEFAULT_ANGLES, speeds=(0.01,), *, t0: float = 2.0,
                    rate: float = 1000.0, **options) -> list[CollisionCase]:
-    """Every (speed, angle) case; options go to ``run_case``. Raises InputError on bad input."""
+    """Every (speed, angle) case.
+
+    Args:
+        angles: Cutting angles [deg], each in (0, 90].
+        speeds: Approach speeds [m/s], each in (0, 100].
+        t0: Analytic first-contact time [s], in (0, 1e4].
+        rate: Step rate [Hz], in [1, 1e6].
+        **options: Passed to ``run_case``.
+
+    Returns:
+        The cases, speed by speed, angle by angle.
+
+    Raises:
+        InputError: A value outside its range.
+    """
     angles, speeds = [float(v) for v in angles], [float(v) for v in speeds]
     if not angles or any(not (0.0 < v <= 90.0) for v in angles):
         raise InputError(f"--angles must be cutting angles in (0, 90] deg, got {angles}")
@@ -141,6 +194,7 @@ _CSV_COLUMNS = ["angle_deg", "speed_m_s", "t_analytic_s", "t_discrete_s", "t_ccd
 
 
 def _xy_error(case: CollisionCase, which: str) -> float | None:
+    """XY distance [m] of a detected point from the analytic one (None if not detected)."""
     p = getattr(case, f"point_{which}")
     return None if p is None else float(np.linalg.norm(p[:2] - case.point_analytic[:2]))
 
@@ -158,16 +212,23 @@ def _row(c: CollisionCase) -> list:
 
 
 def mean_abs_error_pct(cases: list[CollisionCase], which: str) -> float | None:
-    """Eq. 9 over the cases, as the mean of |relative error| [%] (None if any is missing)."""
+    """Eq. 9 over the cases, as the mean of |relative error| [%] (None if any is missing).
+
+    Args:
+        cases: The cases.
+        which: ``"discrete"`` or ``"ccd"``.
+    """
     errs = [c.relative_error_pct(which) for c in cases]
     return None if any(e is None for e in errs) else float(np.mean(np.abs(errs)))
 
 
 def _fmt(v, spec: str) -> str:
+    """``v`` formatted, or "not detected" for None."""
     return "not detected" if v is None else format(v, spec)
 
 
 def _markdown(cases: list[CollisionCase], rate: float) -> str:
+    """collision.md: a Table 2 per speed (times [ms], mean relative errors) and the point errors."""
     lines = ["# Collision detection (paper section 4.2, Table 2)", ""]
     for speed in sorted({c.speed_m_s for c in cases}):
         group = [c for c in cases if c.speed_m_s == speed]
@@ -201,6 +262,7 @@ def _markdown(cases: list[CollisionCase], rate: float) -> str:
 
 
 def _plot(path: Path, cases: list[CollisionCase], rate: float) -> None:
+    """collision_points.png: detected points about the analytic one [um] and time errors [%]."""
     fig = new_figure(11.0, 5.0)
     ax, bx = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
     markers = "os^DvP*X"
@@ -251,8 +313,16 @@ def _plot(path: Path, cases: list[CollisionCase], rate: float) -> None:
 
 
 def write_report(out_dir, cases: list[CollisionCase], rate: float = 1000.0) -> list[Path]:
-    """Write collision.csv, collision.md and collision_points.png into ``out_dir``."""
+    """Write collision.csv, collision.md and collision_points.png.
 
+    Args:
+        out_dir: Output directory.
+        cases: The cases of ``run_experiment``.
+        rate: The step rate [Hz] they ran at.
+
+    Returns:
+        The three paths written.
+    """
     out = Path(out_dir)
     write_csv(out / "collision.csv", _CSV_COLUMNS, (_row(c) for c in cases))
     with atomic_path(out / "collision.md") as tmp:

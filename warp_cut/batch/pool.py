@@ -4,7 +4,7 @@ Both backends are ``concurrent.futures`` executors: a ``ProcessPoolExecutor`` he
 executor of a ``distributed.Client`` (``--scheduler tcp://host:port``). A worker runs one
 scenario as ``warp-cut run BASE --set ...`` into a temporary directory and sends back the files
 it wrote, so workers need no shared filesystem; this process alone writes ``DIR`` (see
-``batch_store``).
+``warp_cut.batch.store``).
 """
 
 from __future__ import annotations
@@ -36,8 +36,16 @@ CONNECT_TIMEOUT_S = 30.0
 
 
 def _scene_file(task: dict, tmp: Path) -> Path:
-    """The base scene file on this worker: the sweep's own file when it is here unchanged,
-    else a copy of the text it was sent under the same file name (so the same scene name)."""
+    """The base scene file on this worker.
+
+    Args:
+        task: The scenario task (see ``run_scenario``).
+        tmp: A temporary directory of this worker.
+
+    Returns:
+        The sweep's own file when it is here unchanged, else a copy of the text it was sent
+        under the same file name (so the same scene name).
+    """
     original = Path(task["scene_path"])
     with contextlib.suppress(OSError):
         if original.is_file() and original.read_text(encoding="utf-8") == task["scene_text"]:
@@ -83,19 +91,27 @@ def run_scenario(task: dict) -> dict:
 
 @dataclass
 class BatchSummary:
-    """Counts of a batch: scenarios in the sweep, found finished, run now, by status."""
+    """Counts of a batch.
+
+    Attributes:
+        total: Scenarios in the sweep.
+        skipped: Scenarios found finished in the output directory.
+        counts: Status -> scenarios (found finished and run now).
+        lost: (id, message) of scenarios whose worker was lost; they run again on the next call.
+    """
 
     total: int
     skipped: int = 0
     counts: dict = field(default_factory=lambda: dict.fromkeys(STATUSES, 0))
     lost: list = field(default_factory=list)
-    """(id, message) of scenarios whose worker was lost; they run again on the next call."""
 
     @property
     def all_ok(self) -> bool:
+        """True if every scenario of the sweep finished with status ``ok``."""
         return self.counts["ok"] == self.total
 
     def line(self) -> str:
+        """One-line summary: counts by status, lost scenarios."""
         parts = [f"{self.counts[s]} {s}" for s in STATUSES]
         if self.lost:
             parts.append(f"{len(self.lost)} lost (rerun to retry)")
@@ -103,7 +119,11 @@ class BatchSummary:
 
 
 def _open_executor(workers: int | None, scheduler: str | None):
-    """(executor, close) for the local pool or a Dask cluster."""
+    """(executor, close) for the local pool or a Dask cluster.
+
+    Raises:
+        InputError: Dask is not installed, the scheduler cannot be reached, or workers < 1.
+    """
     if scheduler:
         try:
             from distributed import Client  # noqa: PLC0415 - optional dependency (cluster extra)
@@ -142,9 +162,11 @@ class _Progress:
             self.bar.set_postfix_str(self._text())
 
     def _text(self) -> str:
+        """``done N, failed N, remaining N``."""
         return f"done {self.done}, failed {self.failed}, remaining {self.total - self.done}"
 
     def update(self, scenario_id: str, status: str) -> None:
+        """Count one finished scenario."""
         self.done += 1
         self.failed += status != "ok"
         if self.bar is not None:
@@ -155,6 +177,7 @@ class _Progress:
                   file=sys.stderr, flush=True)
 
     def close(self) -> None:
+        """Close the bar (if any)."""
         if self.bar is not None:
             self.bar.close()
 
@@ -163,11 +186,23 @@ def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: s
               retry_failed: bool = False, usd: bool = True, progress: bool = False) -> BatchSummary:
     """Run every scenario of ``sweep`` not already finished in ``out_dir``.
 
-    workers: local process pool size (default: the number of cores); scheduler: a Dask
-    scheduler address instead of the pool. retry_failed: run failed and unstable scenarios
-    again. usd: the runs write USD (``warp-cut batch --no-usd`` turns it off).
-    Results land in ``out_dir`` as each scenario finishes; on KeyboardInterrupt the
-    finished ones are kept and the rest are cancelled.
+    Results land in ``out_dir`` as each scenario finishes; on KeyboardInterrupt the finished
+    ones are kept and the rest are cancelled.
+
+    Args:
+        sweep: The expanded sweep.
+        out_dir: The batch output directory.
+        workers: Local process pool size (default: the number of cores).
+        scheduler: A Dask scheduler address, used instead of the pool.
+        retry_failed: Run failed and unstable scenarios again.
+        usd: The runs write USD (``warp-cut batch --no-usd`` turns it off).
+        progress: Show done / failed / remaining on stderr.
+
+    Returns:
+        The counts of the batch.
+
+    Raises:
+        InputError: Bad options, or the directory is in use by another batch.
     """
     summary = BatchSummary(total=len(sweep.scenarios))
     store = BatchStore(out_dir, sweep)

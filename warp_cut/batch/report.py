@@ -29,11 +29,13 @@ KEY_METRICS = ("width_curve.plateau_m", "width_curve.peak_m", "incision.width_m"
                "wall_time_s")
 """Metrics drawn first when present (others that vary follow, up to MAX_PANELS in all)."""
 MAX_PANELS = 12
+"""Panels per parameter plot at most."""
 _MAX_LEGEND = 8
 _NOT_METRICS = {"id", "status", "rep", "message", "worker_time_s"}
 
 
 def _number(cell: str):
+    """A results.csv cell as a finite float, or None."""
     try:
         value = float(cell)
     except ValueError:
@@ -42,10 +44,21 @@ def _number(cell: str):
 
 
 def read_results(out_dir) -> tuple[list[str], list[dict]]:
-    """(swept parameters with scalar values, rows of results.csv as dicts of strings).
+    """Read the results of a batch.
 
     Parameters whose values are lists or tables (tool keyframes, say) are not drawn; a
-    ``tag.*`` parameter beside them labels what they encode."""
+    ``tag.*`` parameter beside them labels what they encode.
+
+    Args:
+        out_dir: The ``--out`` directory of ``warp-cut batch``.
+
+    Returns:
+        The swept parameters with scalar values, and the rows of results.csv as dicts of
+        strings.
+
+    Raises:
+        InputError: batch.json or results.csv is missing or unreadable.
+    """
     root = Path(out_dir)
     manifest, results = root / MANIFEST_FILE, root / RESULTS_FILE
     for path in (manifest, results):
@@ -79,6 +92,8 @@ def _x_positions(values: list[str]):
 
 
 def _plot_parameter(param: str, parameters: list[str], rows: list[dict], metrics: list[str]):
+    """The figure of ``metrics`` against ``param``: a line per combination of the other varying
+    parameters (repeats averaged), failures as red crosses on the x axis."""
     others = [p for p in parameters if p != param and len({r[p] for r in rows}) > 1]
     xs, labels = _x_positions([r[param] for r in rows])
     ok = [i for i, r in enumerate(rows) if r["status"] == "ok"]
@@ -115,7 +130,17 @@ def _plot_parameter(param: str, parameters: list[str], rows: list[dict], metrics
 
 
 def plot_results(out_dir) -> list[Path]:
-    """Draw every varying metric against every swept parameter; return the PNG paths."""
+    """Draw every varying metric against every swept parameter, into ``DIR/plots/``.
+
+    Args:
+        out_dir: The ``--out`` directory of ``warp-cut batch``.
+
+    Returns:
+        The PNG files written (none for a parameter without two successful values).
+
+    Raises:
+        InputError: batch.json or results.csv is missing or unreadable.
+    """
     parameters, rows = read_results(out_dir)
     ok_rows = [r for r in rows if r["status"] == "ok"]
     metrics = _metrics(ok_rows, parameters)

@@ -35,17 +35,28 @@ STATUSES = ("ok", "failed", "unstable")
 """Status of a finished scenario: ran to the end / bad input or an error / numerically unstable."""
 
 RECORD_FILE = "scenario.json"
+"""Record of one scenario in its run directory: parameters, status, message, overrides, command."""
 RESULTS_FILE = "results.csv"
+"""One row per finished scenario, in sweep order."""
 MANIFEST_FILE = "batch.json"
+"""The sweep file, base scene, swept parameters and scenario count."""
 _TEMP_PREFIXES = (".tmp-", ".old-")
 _SKIPPED_METRICS = {"name", "scene_file", "usd_file"}
 
 
 def flatten_metrics(metrics: dict, prefix: str = "") -> dict:
-    """Scalar metrics by dotted name; short lists of scalars become ``key.0``, ``key.1``, ...
+    """Scalar metrics by dotted name, for one results.csv row.
 
-    Nested tables (``cut.deleted_nodes``) are flattened; long lists and the run's name and
-    file paths (scene, USD) are left out.
+    Nested tables (``cut.deleted_nodes``) are flattened; short lists of scalars become
+    ``key.0``, ``key.1``, ...; long lists and the run's name and file paths (scene, USD) are
+    left out.
+
+    Args:
+        metrics: A run's metrics.json content.
+        prefix: Prefix of every name (used for nested tables).
+
+    Returns:
+        Dotted name -> scalar (number, string or None).
     """
     flat: dict = {}
     for key, value in metrics.items():
@@ -63,6 +74,7 @@ def flatten_metrics(metrics: dict, prefix: str = "") -> dict:
 
 
 def _umask() -> int:
+    """The process's file mode creation mask."""
     mask = os.umask(0)
     os.umask(mask)
     return mask
@@ -70,7 +82,16 @@ def _umask() -> int:
 
 def _relocate(metrics_json: bytes, worker_out: str | None, run_dir: str) -> bytes:
     """metrics.json with paths into the worker's output directory (``usd_file``, say) pointed
-    at the run directory the files now live in."""
+    at the run directory the files now live in.
+
+    Args:
+        metrics_json: The worker's metrics.json bytes.
+        worker_out: The worker's output directory (None: nothing to move).
+        run_dir: The run directory in the batch output.
+
+    Returns:
+        The metrics.json bytes to write.
+    """
     if not worker_out:
         return metrics_json
 
@@ -87,6 +108,7 @@ def _relocate(metrics_json: bytes, worker_out: str | None, run_dir: str) -> byte
 
 
 def _lookup(data: dict, key: str):
+    """The value at dotted ``key`` in nested tables, or None."""
     node = data
     for part in key.split("."):
         if not isinstance(node, dict) or part not in node:
@@ -100,6 +122,19 @@ class BatchStore:
 
     Open it as a context manager: it takes the directory's lock (another batch writing to
     the same directory is an InputError) and removes temporaries an interrupted batch left.
+
+    Args:
+        out_dir: The batch output directory.
+        sweep: The sweep it holds.
+
+    Attributes:
+        root: The output directory.
+        runs: Its ``runs/`` directory.
+        sweep: The sweep.
+        records: Scenario id -> record of each finished scenario (with its metrics if ok).
+
+    Raises:
+        InputError: ``out_dir`` exists and is not a directory, or another batch holds its lock.
     """
 
     def __init__(self, out_dir, sweep: Sweep):
@@ -130,6 +165,7 @@ class BatchStore:
         return self
 
     def _scalar_parameters(self) -> list[str]:
+        """Swept keys whose values are all scalars (the ones a plot can use as an axis)."""
         return [k for k in self.sweep.parameters
                 if not any(isinstance(s.params.get(k), (list, dict)) for s in self.sweep.scenarios)]
 
@@ -137,10 +173,16 @@ class BatchStore:
         self._lock.close()  # closing releases the lock
 
     def load_finished(self, *, retry_failed: bool = False) -> list[Scenario]:
-        """Read the run directories of this sweep; return the scenarios still to run.
+        """Read the run directories of this sweep into ``records``.
 
         A run directory counts as finished when its record matches the scenario's current
-        fingerprint (base scene, overrides, repeat); with retry_failed only successes count.
+        fingerprint (base scene, overrides, repeat).
+
+        Args:
+            retry_failed: Only successes count as finished.
+
+        Returns:
+            The scenarios still to run, in sweep order.
         """
         todo = []
         for scenario in self.sweep.scenarios:
@@ -152,6 +194,7 @@ class BatchStore:
         return todo
 
     def _read_record(self, scenario: Scenario) -> dict | None:
+        """The scenario's record if its run directory is finished and current, else None."""
         run = self.runs / scenario.id
         with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
             record = json.loads((run / RECORD_FILE).read_text(encoding="utf-8"))
@@ -166,8 +209,16 @@ class BatchStore:
     def commit(self, scenario: Scenario, outcome: dict) -> dict:
         """Write a finished scenario's run directory atomically and rewrite results.csv.
 
-        outcome: what ``run_scenario`` returned (status, message, files, worker_time_s, host).
-        Returns the record kept for results.csv.
+        Args:
+            scenario: The scenario.
+            outcome: What ``run_scenario`` returned (status, message, files, worker_time_s,
+                host).
+
+        Returns:
+            The record kept for results.csv.
+
+        Raises:
+            ValueError: An output file would land outside the run directory.
         """
         record = {
             "id": scenario.id, "rep": scenario.rep, "params": scenario.params,
@@ -202,6 +253,7 @@ class BatchStore:
         return record
 
     def _replace(self, tmp: Path, target: Path) -> None:
+        """Move the finished directory ``tmp`` onto ``target``, replacing a stale run."""
         if not target.exists():
             os.rename(tmp, target)
             return
@@ -212,7 +264,11 @@ class BatchStore:
         shutil.rmtree(old, ignore_errors=True)
 
     def write_results(self) -> Path:
-        """Rewrite results.csv atomically: finished scenarios in sweep order."""
+        """Rewrite results.csv atomically: finished scenarios in sweep order.
+
+        Returns:
+            The path of results.csv.
+        """
         params = self.sweep.parameters
         base = self._base_values()
         rows, metric_names = [], {}
@@ -241,6 +297,7 @@ class BatchStore:
 
     @staticmethod
     def _cell(value):
+        """A parameter value as a results.csv cell (lists and tables in TOML form, None as '')."""
         if value is None:
             return ""
         return toml_value(value) if isinstance(value, (list, dict)) else value

@@ -1,6 +1,7 @@
 """Sweep files: a base scene and the parameters to vary, expanded into named scenarios.
 
-A sweep file is TOML (see README, "Batch runs")::
+A sweep file is TOML (see docs/batch.md)::
+
     base = "skin_press.toml"   # scene file relative to this file, or a bundled scene name,
                                # or an inline [base] table holding a whole scene
     repeat = 1                 # runs of every scenario; ids gain __rep<k> when > 1
@@ -52,10 +53,11 @@ _MAX_SCENARIOS = 100_000
 class Scenario:
     """One run of a sweep.
 
-    id: directory name under ``DIR/runs/``, derived from the parameters (stable, readable);
-    params: dotted key -> value in sweep order (``tag.*`` included);
-    rep: repeat index in [0, repeat);
-    overrides: ``section.key=value`` strings (TOML values) applied after the sweep's ``[set]``.
+    Attributes:
+        id: Directory name under ``DIR/runs/``, derived from the parameters (stable, readable).
+        params: Dotted key -> value in sweep order (``tag.*`` included).
+        rep: Repeat index in [0, repeat).
+        overrides: ``section.key=value`` strings (TOML values) applied after the sweep's ``[set]``.
     """
 
     id: str
@@ -68,10 +70,18 @@ class Scenario:
 class Sweep:
     """A parsed sweep file.
 
-    base_data: the base scene as loaded from TOML; base_text: its TOML source (an inline base
-    written out, its relative mesh path made absolute); base_path: the base scene file (the
-    sweep file for an inline base, whose default scene name is then the sweep file's stem);
-    settings: the ``[set]`` overrides; parameters: every swept key, in order.
+    Attributes:
+        path: The sweep file.
+        base_data: The base scene as loaded from TOML.
+        base_text: Its TOML source (an inline base written out, its relative mesh path made
+            absolute).
+        base_path: The base scene file (the sweep file for an inline base, whose default scene
+            name is then the sweep file's stem).
+        base_inline: True if the base is an inline ``[base]`` table.
+        settings: The ``[set]`` overrides as ``section.key=value`` strings.
+        repeat: Runs of each scenario.
+        parameters: Every swept key, in order.
+        scenarios: The expanded scenarios, in sweep order.
     """
 
     path: Path
@@ -124,15 +134,18 @@ def toml_value(value) -> str:
 
 
 def _toml_string(text: str) -> str:
+    """``text`` as a TOML basic string."""
     # JSON escapes are TOML escapes, except that TOML wants no surrogate pairs and no raw DEL
     return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
 
 
 def _digest(value) -> str:
+    """Eight hex digits of a hash of ``value`` (its JSON form)."""
     return hashlib.sha1(json.dumps(value, sort_keys=True, default=str).encode()).hexdigest()[:8]
 
 
 def _id_value(value) -> str:
+    """A parameter value as it appears in a scenario id."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, (int, float, str)):
@@ -141,6 +154,7 @@ def _id_value(value) -> str:
 
 
 def _scenario_id(params: dict) -> str:
+    """``key=value`` pairs joined by ``__``, made safe as a directory name and cut to 100 characters."""
     text = "__".join(f"{k}={_id_value(v)}" for k, v in params.items()) or "base"
     text = _ID_UNSAFE.sub("-", text)
     if len(text) > _ID_MAX:
@@ -149,6 +163,7 @@ def _scenario_id(params: dict) -> str:
 
 
 def _check_value(path, where: str, value) -> None:
+    """Raise SceneError if ``value`` has no TOML form."""
     try:
         toml_value(value)
     except TypeError:
@@ -157,12 +172,14 @@ def _check_value(path, where: str, value) -> None:
 
 
 def _check_key(path, where: str, key: str) -> None:
+    """Raise SceneError if ``key`` is not a dotted scene key."""
     if not isinstance(key, str) or not all(_KEY_PART.match(p) for p in key.split(".")):
         raise SceneError(path, where, f"{key!r} is not a dotted scene key like "
                                       "\"material.stiffness\" (letters, digits, _ and -)")
 
 
 def _table(path, data: dict, key: str) -> dict:
+    """``data[key]`` (default empty), which must be a table."""
     value = data.get(key, {})
     if not isinstance(value, dict):
         raise SceneError(path, key, f"must be a table, got {type(value).__name__}")
@@ -171,7 +188,6 @@ def _table(path, data: dict, key: str) -> dict:
 
 def _inline_base(path: Path, base: dict):
     """(data, text) of an inline base; a relative ``tissue.path`` resolves against the sweep file."""
-
     base = copy.deepcopy(base)
     tissue = base.get("tissue")
     if isinstance(tissue, dict) and isinstance(tissue.get("path"), str):
@@ -205,6 +221,7 @@ def _load_base(path: Path, data: dict):
 
 
 def _cases(path, data: dict) -> list[dict]:
+    """The ``[[cases]]`` tables, keys and values checked."""
     cases = data.get("cases", [])
     if not isinstance(cases, list) or not all(isinstance(c, dict) for c in cases):
         raise SceneError(path, "cases", "must be an array of tables ([[cases]])")
@@ -216,6 +233,7 @@ def _cases(path, data: dict) -> list[dict]:
 
 
 def _grid(path, data: dict) -> dict:
+    """The ``[grid]`` table, keys and value lists checked, at most 100 000 combinations."""
     grid = _table(path, data, "grid")
     for key, values in grid.items():
         _check_key(path, "grid", key)
@@ -248,7 +266,18 @@ def _unique_ids(path, ids: list[str], params: list[dict]) -> list[str]:
 
 
 def parse_sweep(data: dict, path) -> Sweep:
-    """Validate a sweep dictionary (as loaded from TOML) and expand it into scenarios."""
+    """Validate a sweep dictionary and expand it into scenarios.
+
+    Args:
+        data: The sweep as loaded from TOML.
+        path: The sweep file (relative base scenes resolve against it; named in errors).
+
+    Returns:
+        The sweep with its scenarios.
+
+    Raises:
+        SceneError: An unknown key, a bad value or base scene; the message names the key.
+    """
     path = Path(path)
     unknown = set(data) - _TOP_KEYS
     if unknown:
@@ -290,7 +319,17 @@ def parse_sweep(data: dict, path) -> Sweep:
 
 
 def load_sweep(source) -> Sweep:
-    """Load and expand a sweep file (a path, or the name of a bundled ``*sweep*`` file)."""
+    """Load and expand a sweep file.
+
+    Args:
+        source: A path, or the name of a bundled ``*sweep*`` file.
+
+    Returns:
+        The sweep with its scenarios.
+
+    Raises:
+        SceneError: The file is missing, not TOML, or not a valid sweep.
+    """
     path = Path(source)
     if not path.is_file():
         bundled = bundled_scene_path(str(source))

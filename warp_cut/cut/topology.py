@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..mesh.geometry import triangle_areas
 from ..sim.stiffness import van_gelder_stiffness
 from .classes import NodeClass, SpringClass
 
@@ -246,8 +247,7 @@ class TopologyEditor:
         a, b, c = (int(v) for v in corners)
         for i, j in ((a, b), (b, c), (c, a)):
             self.add_spring(i, j, positions, edge_class)
-        p = positions[[a, b, c]]
-        area = 0.5 * float(np.linalg.norm(np.cross(p[1] - p[0], p[2] - p[0])))
+        area = float(triangle_areas(positions[[a, b, c]], [[0, 1, 2]])[0])
         slot = int(self.model.triangle_table.append(corners=np.array([[a, b, c]]), area=[area])[0])
         for v in (a, b, c):
             self.node_triangles[v].add(slot)

@@ -24,7 +24,13 @@ _FILE_MODE = 0o666 & ~_UMASK
 def atomic_path(path, suffix: str = ".tmp"):
     """Yield a temporary path next to ``path``; rename it onto ``path`` only on success.
 
-    ``suffix`` ends the temporary name (writers that pick a format by extension need it)."""
+    Args:
+        path: The final file.
+        suffix: End of the temporary name (writers that pick a format by extension need it).
+
+    Yields:
+        The temporary path to write; it is removed if the block raises.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
@@ -40,6 +46,7 @@ def atomic_path(path, suffix: str = ".tmp"):
 
 
 def _plain(value):
+    """``value`` with numpy arrays and scalars as Python lists and numbers, non-finite floats as None."""
     if isinstance(value, dict):
         return {k: _plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
@@ -54,14 +61,25 @@ def _plain(value):
 
 
 def write_json(path, data: dict) -> None:
-    """Write ``data`` as indented JSON (numpy values converted, non-finite floats as null)."""
+    """Write ``data`` as indented JSON, atomically.
+
+    Args:
+        path: The JSON file.
+        data: Values may be numpy arrays and scalars; non-finite floats are written as null.
+    """
     with atomic_path(path) as tmp:
         tmp.write_text(json.dumps(_plain(data), indent=2) + "\n", encoding="utf-8")
 
 
 def write_csv(path, header: list[str], rows) -> None:
-    """Write rows (iterables matching ``header``) as CSV; a NaN float (no value, e.g. no
-    incision yet) is written as an empty cell."""
+    """Write rows as CSV, atomically.
+
+    Args:
+        path: The CSV file.
+        header: Column names.
+        rows: Iterables matching ``header``; a NaN float (no value, e.g. no incision yet) is
+            written as an empty cell, other floats with 9 significant digits.
+    """
 
     def cell(v):
         if isinstance(v, float):
@@ -76,8 +94,15 @@ def write_csv(path, header: list[str], rows) -> None:
 
 
 def write_ply(path, points, triangles, node_class=None) -> None:
-    """Write a triangle surface as binary PLY through trimesh; ``node_class`` (k,) becomes the
-    vertex property ``node_class``."""
+    """Write a triangle surface as binary PLY through trimesh, atomically.
+
+    Args:
+        path: The PLY file.
+        points: Vertex positions [m], shape (k, 3).
+        triangles: Vertex indices, shape (t, 3).
+        node_class: Optional ``NodeClass`` per vertex, shape (k,), written as the vertex
+            property ``node_class`` (int8).
+    """
 
     mesh = trimesh.Trimesh(np.asarray(points), np.asarray(triangles), process=False)
     if node_class is not None:

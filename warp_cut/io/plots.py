@@ -35,9 +35,17 @@ _MM = 1e3
 
 @dataclass
 class RunPicture:
-    """What the preview shows: positions (n, 3) [m], triangles (t, 3), active (n,) bool,
-    node_class (n,) int, incision control points (3 s + 1, 3) [m] or None, tool end points
-    ((3,), (3,)) [m] or None, time [s]."""
+    """What the preview shows.
+
+    Attributes:
+        positions: Node positions [m], shape (n, 3).
+        triangles: Node indices, shape (t, 3).
+        active: Live nodes, shape (n,) bool.
+        node_class: ``NodeClass`` per node, shape (n,) int.
+        incision: Control points of the incision's Bezier chain [m], shape (3 s + 1, 3), or None.
+        tool: The tool's end points (p0, p1) [m], each shape (3,), or None.
+        time: Simulated time [s].
+    """
 
     positions: np.ndarray
     triangles: np.ndarray
@@ -49,16 +57,22 @@ class RunPicture:
 
 
 class FinalFrame:
-    """Run observer that keeps the final state as a RunPicture (``picture`` after finish)."""
+    """Run observer that keeps the final state as a RunPicture.
+
+    Attributes:
+        picture: The final state, set by ``finish`` (None before, or if no frame was seen).
+    """
 
     def __init__(self):
         self._sim = None
         self.picture: RunPicture | None = None
 
     def on_frame(self, sim, frame: int) -> None:
+        """Remember the simulator (the picture is taken once, at ``finish``)."""
         self._sim = sim
 
     def finish(self, metrics: dict | None = None) -> None:
+        """Take the picture of the last frame seen."""
         sim = self._sim
         if sim is None:
             return
@@ -72,13 +86,18 @@ class FinalFrame:
 
 
 def new_figure(width=6.4, height=4.8):
+    """A matplotlib Figure of ``width`` x ``height`` [inch] at 120 dpi on an Agg canvas (no pyplot)."""
     fig = Figure(figsize=(width, height), dpi=120)
     FigureCanvasAgg(fig)
     return fig
 
 
 def save_figure(fig, path) -> Path:
-    """Write ``fig`` as PNG to ``path`` atomically."""
+    """Write ``fig`` as PNG to ``path`` atomically.
+
+    Returns:
+        The path written.
+    """
     path = Path(path)
     with atomic_path(path, suffix=".png") as tmp:
         fig.savefig(tmp, format="png")
@@ -86,9 +105,16 @@ def save_figure(fig, path) -> Path:
 
 
 def plot_preview(path, picture: RunPicture, title: str = "") -> Path:
-    """Draw the mesh from above with node classes coloured; returns the path written."""
+    """Draw the mesh from above (XY [mm]) with node classes coloured, the incision and the tool axis.
 
+    Args:
+        path: The PNG file.
+        picture: What to draw.
+        title: Figure title (default: the time).
 
+    Returns:
+        The path written.
+    """
     x = np.asarray(picture.positions, dtype=np.float64) * _MM
     tri = np.asarray(picture.triangles, dtype=np.int64).reshape(-1, 3)
     fig = new_figure(7.0, 5.6)
@@ -130,8 +156,19 @@ def plot_preview(path, picture: RunPicture, title: str = "") -> Path:
 
 
 def plot_series(path, t, series: dict, ylabel: str, title: str = "", marks: dict | None = None) -> Path:
-    """Line plot of ``series`` (label -> (k,) values) over ``t`` (k,) [s]; ``marks`` maps a label
-    to (t, y) points drawn as markers. Returns the path written."""
+    """Line plot of time series.
+
+    Args:
+        path: The PNG file.
+        t: Times [s], shape (k,).
+        series: Label -> values, each shape (k,).
+        ylabel: Y axis label (with its unit).
+        title: Figure title.
+        marks: Label -> (t [s], y) points drawn as markers.
+
+    Returns:
+        The path written.
+    """
     fig = new_figure()
     ax = fig.add_subplot(1, 1, 1)
     t = np.asarray(t, dtype=np.float64)
@@ -150,8 +187,18 @@ def plot_series(path, t, series: dict, ylabel: str, title: str = "", marks: dict
 
 
 def write_run_plots(out_dir, columns: dict, picture: RunPicture | None, name: str = "") -> list[Path]:
-    """Write preview.png (if ``picture``), tool_force.png and width.png (if the width column
-    exists) into ``out_dir``; returns the paths written."""
+    """Write the pictures of a run.
+
+    Args:
+        out_dir: Output directory.
+        columns: Time-series columns (``t`` [s], ``tool_fx/fy/fz`` [N], ``incision_width_m`` [m]).
+        picture: The final state for ``preview.png``, or None for no preview.
+        name: Run name for the titles.
+
+    Returns:
+        The paths written: ``preview.png`` (with a picture), ``tool_force.png`` and
+        ``width.png`` (when the width column exists).
+    """
     out = Path(out_dir)
     written = []
     if picture is not None:

@@ -31,6 +31,7 @@ _EXTENT_TOLERANCE = 1e-6
 
 
 def _times(prim, start: float, end: float) -> list[float]:
+    """The start time code and every time sample of ``prim``'s attributes in [start, end], sorted."""
     times = {float(start)}
     interval = Gf.Interval(start, end)
     for attr in prim.GetAttributes():
@@ -39,10 +40,13 @@ def _times(prim, start: float, end: float) -> list[float]:
 
 
 def _array(value, dtype=np.float64) -> np.ndarray:
+    """A USD value as a numpy array (an empty one for None)."""
     return np.asarray(value if value is not None else [], dtype=dtype)
 
 
 def _check_extent(where: str, extent, points: np.ndarray, exact: bool, pad: float = 0.0) -> list[str]:
+    """Problems of an authored extent (2, 3) [m] against points (n, 3) [m]: it must contain
+    them (grown by ``pad`` [m]) and, if ``exact``, be their bounds."""
     ext = _array(extent)
     if ext.shape != (2, 3) or not np.all(np.isfinite(ext)):
         return [f"{where}: extent must be two finite points, got shape {ext.shape}"]
@@ -58,6 +62,7 @@ def _check_extent(where: str, extent, points: np.ndarray, exact: bool, pad: floa
 
 
 def _check_mesh(mesh, t: float, where: str) -> tuple[list[str], dict]:
+    """Problems of a Mesh at time ``t``, and its element counts for the primvar check."""
     problems = []
     points = _array(mesh.GetPointsAttr().Get(t))
     counts = _array(mesh.GetFaceVertexCountsAttr().Get(t), np.int64)
@@ -92,6 +97,7 @@ def _check_mesh(mesh, t: float, where: str) -> tuple[list[str], dict]:
 
 
 def _check_curves(curves, t: float, where: str) -> tuple[list[str], dict]:
+    """Problems of a BasisCurves at time ``t``, and its element counts for the primvar check."""
     points = _array(curves.GetPointsAttr().Get(t))
     counts = _array(curves.GetCurveVertexCountsAttr().Get(t), np.int64)
     # varying counts segments on curves, not points: not checked
@@ -115,6 +121,7 @@ def _check_curves(curves, t: float, where: str) -> tuple[list[str], dict]:
 
 
 def _check_primvars(prim, t: float, where: str, sizes: dict) -> list[str]:
+    """Problems of ``prim``'s primvars at time ``t`` against the element counts ``sizes``."""
     expected_by = {UsdGeom.Tokens.constant: 1, UsdGeom.Tokens.uniform: sizes.get("faces"),
                    UsdGeom.Tokens.vertex: sizes.get("points"),
                    UsdGeom.Tokens.varying: sizes.get("varying", sizes.get("points")),
@@ -146,8 +153,14 @@ def _check_primvars(prim, t: float, where: str, sizes: dict) -> list[str]:
 
 
 def check_usd(path) -> list[str]:
-    """Problems found in the stage at ``path``, one message each (an empty list: none)."""
+    """Check an exported stage time sample by time sample (see the module doc).
 
+    Args:
+        path: The USD file (its value-clip chunks are read through it).
+
+    Returns:
+        One message per problem found; an empty list if there is none.
+    """
     path = Path(path)
     if not path.is_file():
         return [f"{path}: file not found"]
@@ -193,8 +206,14 @@ def check_usd(path) -> list[str]:
 
 
 def validate_usd(path) -> list[str]:
-    """Messages of every registered ``pxr.UsdValidation`` validator on the stage at ``path``."""
+    """Run every registered ``pxr.UsdValidation`` validator on a stage.
 
+    Args:
+        path: The USD file.
+
+    Returns:
+        One ``"validator: message"`` line per error found; an empty list if there is none.
+    """
     stage = Usd.Stage.Open(str(path))
     validators = UsdValidation.ValidationRegistry().GetOrLoadAllValidators()
     errors = UsdValidation.ValidationContext(validators).Validate(stage)

@@ -54,7 +54,14 @@ _TOOL_COLOR = (0.75, 0.78, 0.82)
 
 
 def axis_quaternion(direction) -> tuple[float, float, float, float]:
-    """Unit quaternion (w, x, y, z) of the shortest rotation taking +Z onto ``direction`` (3,)."""
+    """The shortest rotation taking +Z onto a direction.
+
+    Args:
+        direction: Any non-zero vector, shape (3,).
+
+    Returns:
+        Unit quaternion (w, x, y, z).
+    """
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
     # half-angle form: accurate for every direction, including near -Z
@@ -68,7 +75,6 @@ def axis_quaternion(direction) -> tuple[float, float, float, float]:
 
 def _clip_attributes(has_tool: bool):
     """(prim path, attribute name, Sdf type name) of every attribute the chunks animate."""
-
     t = Sdf.ValueTypeNames
     attrs = [(TISSUE, "points", t.Point3fArray), (TISSUE, "extent", t.Float3Array),
              (TISSUE, "faceVertexCounts", t.IntArray), (TISSUE, "faceVertexIndices", t.IntArray),
@@ -84,8 +90,7 @@ def _clip_attributes(has_tool: bool):
 
 
 def _extent(points: np.ndarray, pad: float = 0.0):
-    """Bounds [min, max] of points (n, 3) [m] grown by ``pad`` [m] (zeros for no points)."""
-
+    """Bounds [min, max] [m] of points (n, 3) [m] grown by ``pad`` [m] (zeros for no points)."""
     if len(points) == 0:
         return Vt.Vec3fArray([Gf.Vec3f(0.0), Gf.Vec3f(0.0)])
     lo, hi = points.min(axis=0) - pad, points.max(axis=0) + pad
@@ -95,16 +100,20 @@ def _extent(points: np.ndarray, pad: float = 0.0):
 class UsdRecorder:
     """Run observer writing the USD playback of a run (see the module docstring).
 
-    Args:
-        path: the top-level file, ending in ``.usdc``, ``.usda`` or ``.usd``.
-        scene: a Scene giving the name, fps and tool path (or pass them one by one).
-        fps: output frames per second (time codes per second).
-        tool_path: the ToolPath placing the tool at each frame's time; without one the
-            Simulator's last tool pose is used (``tool_radius`` then declares the tool).
-        chunk_frames: frames per chunk file (>= 1).
-
     Nothing is written before the first frame; a previous export at ``path`` is replaced then.
     ``abort()`` removes what this recorder wrote.
+
+    Args:
+        path: The top-level file, ending in ``.usdc``, ``.usda`` or ``.usd``.
+        scene: A Scene giving the fps and tool path (or pass them one by one).
+        fps: Output frames per second [1/s] (time codes per second).
+        tool_path: The ToolPath placing the tool at each frame's time; without one the
+            Simulator's last tool pose is used (``tool_radius`` then declares the tool).
+        tool_radius: Tool radius [m] when there is no tool path (None: no tool prim).
+        chunk_frames: Frames per chunk file (>= 1).
+
+    Raises:
+        InputError: A bad file name, chunk size or fps.
     """
 
     def __init__(self, path, scene=None, *, fps: float | None = None, tool_path=None,
@@ -143,6 +152,7 @@ class UsdRecorder:
 
     # ------------------------------------------------------------------ files
     def _file(self, name: str) -> Path:
+        """A file of the clip directory, with the top-level file's suffix."""
         return self.clip_dir / f"{name}{self.path.suffix}"
 
     def _remove_outputs(self) -> None:
@@ -153,11 +163,13 @@ class UsdRecorder:
             shutil.rmtree(self.clip_dir)
 
     def _export(self, layer, target: Path) -> None:
+        """Write ``layer`` to ``target`` atomically."""
         with atomic_path(target, suffix=target.suffix) as tmp:
             if not layer.Export(str(tmp)):
                 raise OSError(f"could not write {target}")
 
     def _start(self) -> None:
+        """Write the manifest and build the stage: metadata, prims, static attributes, clips."""
         self._created_dir = not self.path.parent.exists()
         self._remove_outputs()
         self.clip_dir.mkdir(parents=True)
@@ -208,6 +220,7 @@ class UsdRecorder:
         self._stage = stage
 
     def _new_chunk(self, frame: int) -> None:
+        """Start an in-memory chunk layer at ``frame`` (held values are authored again)."""
         layer = Sdf.Layer.CreateAnonymous(self.path.suffix)
         for prim, name, type_name in self._attrs:
             spec = layer.GetPrimAtPath(prim) or Sdf.CreatePrimInLayer(layer, prim)
@@ -218,7 +231,6 @@ class UsdRecorder:
 
     def _close_chunk(self) -> None:
         """Write the chunk file, then the top-level file listing it (each atomically)."""
-
         if self._chunk is None:
             return
         index = len(self._chunk_paths)
@@ -237,6 +249,7 @@ class UsdRecorder:
 
     # ------------------------------------------------------------------ authoring
     def _set(self, prim: str, name: str, frame: int, value) -> None:
+        """Author a time sample of ``prim.name`` at ``frame`` in the current chunk."""
         self._chunk.SetTimeSample(f"{prim}.{name}", float(frame), value)
 
     def _set_held(self, prim: str, name: str, frame: int, key, make_value) -> None:
@@ -249,6 +262,12 @@ class UsdRecorder:
         self._set(prim, name, frame, make_value())
 
     def _tissue(self, sim, frame: int) -> None:
+        """Author the tissue mesh: points and extent every frame, topology and classes when changed.
+
+        Raises:
+            ValueError: A triangle uses a deleted node, or a node class is out of range.
+            SimulationUnstable: A live node has a non-finite position.
+        """
         model = sim.model
         if self._topology is None or self._topology[0] != model.topology_version:
             keep = np.flatnonzero(np.asarray(model.active, dtype=bool))
@@ -283,6 +302,7 @@ class UsdRecorder:
         self._set(TISSUE, "extent", frame, _extent(points))
 
     def _incision(self, sim, frame: int) -> None:
+        """Author the incision's Bezier control points (3 s + 1, 3) [m] (no curve before the cut)."""
         controls = sim.incision_controls
         if controls is None:
             pts = np.zeros((0, 3), np.float32)
@@ -298,6 +318,7 @@ class UsdRecorder:
         self._set_held(INCISION, "extent", frame, pts, lambda: _extent(pts, 0.5 * self._curve_width))
 
     def _tool(self, sim, frame: int) -> None:
+        """Author the tool cylinder's placement, height [m] and visibility."""
         if self.tool_radius is None:
             return
         pose = self.tool_path.pose_at(sim.time) if self.tool_path is not None else sim.tool_pose
@@ -317,7 +338,15 @@ class UsdRecorder:
 
     # ------------------------------------------------------------------ observer protocol
     def on_frame(self, sim, frame: int) -> None:
-        """Record the Simulator's state as time code ``frame`` (frames in increasing order)."""
+        """Record the Simulator's state as time code ``frame``.
+
+        Args:
+            sim: The Simulator.
+            frame: Output frame index; frames must increase from call to call.
+
+        Raises:
+            ValueError: ``frame`` does not increase.
+        """
         start = time.perf_counter()
         if frame <= self._last_frame:
             raise ValueError(f"frames must increase: got {frame} after {self._last_frame}")
@@ -334,7 +363,11 @@ class UsdRecorder:
         self.write_time += time.perf_counter() - start
 
     def finish(self, metrics: dict | None = None) -> None:
-        """Write the last chunk and the final top-level file; note the export in ``metrics``."""
+        """Write the last chunk and the final top-level file.
+
+        Args:
+            metrics: If given, gains ``usd_file``, ``usd_frames`` and ``usd_write_time_s`` [s].
+        """
         start = time.perf_counter()
         self._close_chunk()
         self.write_time += time.perf_counter() - start
@@ -356,10 +389,21 @@ class UsdRecorder:
 
 
 def flatten_usd(source, target) -> Path:
-    """Write the stage at ``source`` with its chunks resolved into one self-contained file
-    ``target`` (.usdc/.usda/.usd), atomically; for tools without value-clip support. The whole
-    animation is held in memory while flattening."""
+    """Write a stage with its chunks resolved into one self-contained file, atomically.
 
+    For tools without value-clip support. The whole animation is held in memory while
+    flattening.
+
+    Args:
+        source: The top-level file of an export.
+        target: The flat file (.usdc, .usda or .usd).
+
+    Returns:
+        ``target``.
+
+    Raises:
+        InputError: ``source`` is missing or unreadable, or ``target`` has another suffix.
+    """
     source, target = Path(source), Path(target)
     if not source.is_file():
         raise InputError(f"{source}: file not found")
@@ -379,6 +423,7 @@ _UNSET = object()
 
 
 def _same(a, b) -> bool:
+    """Equality of held keys (arrays compared element-wise)."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and np.array_equal(a, b)
     return a == b

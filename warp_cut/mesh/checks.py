@@ -1,29 +1,28 @@
 """Mesh invariants and quality metrics for the warp_cut surface model.
 
-After every topology edit (a cut) the triangle-surface mass-spring model must
-still be a valid mesh.  This module states those invariants, checks them in a
-vectorised way (numpy only, no Python loops over all elements) and computes
-the quality metrics used to judge a cut (minimum angle, sliver count, ...).
+After every topology edit (a cut) the triangle-surface mass-spring model must still be a valid
+mesh. This module states those invariants, checks them in a vectorised way (numpy only, no
+Python loops over all elements) and computes the quality metrics used to judge a cut (minimum
+angle, sliver count, ...).
 
-Conventions
------------
-* ``points``    : ``(n, 3)`` float64, node positions in metres.
-* ``triangles`` : ``(t, 3)`` integer node indices, counter-clockwise when seen
-  from the side the surface normal points to (``n = (p1-p0) x (p2-p0)``).
-* ``springs``   : ``(s, 2)`` integer node indices, unordered pairs.
-* ``active``    : ``(n,)`` bool; deleted nodes may stay in the arrays as
-  inactive slots, but no triangle or spring may reference them and their
-  coordinates / masses are not checked.
-* ``masses``    : ``(n,)`` float, kilograms.
+Conventions:
+    points: Node positions [m], shape (n, 3) float64.
+    triangles: Node indices, shape (t, 3) integer, counter-clockwise seen from the side the
+        surface normal ``(p1 - p0) x (p2 - p0)`` points to.
+    springs: Node indices, shape (s, 2) integer, unordered pairs.
+    active: Live nodes, shape (n,) bool; deleted nodes may stay in the arrays as inactive
+        slots, but no triangle or spring may reference them and their coordinates and masses
+        are not checked.
+    masses: Node masses [kg], shape (n,) float.
 
-Negative indices are always an error: Warp (like numpy) wraps them silently,
-so ``-1`` would address the last node instead of failing.
+Negative indices are always an error: Warp (like numpy) wraps them silently, so ``-1`` would
+address the last node instead of failing.
 
-Check names
------------
-Every problem message starts with the name of the check that produced it
-(see :data:`CHECKS`); :attr:`MeshReport.problem_counts` maps each failed
-check name to the number of offending elements.
+:func:`check_mesh` runs the groups of checks in order (nodes and masses, triangle indices,
+triangle geometry, edge topology, spring pairs, spring lengths) and then counts slivers. Every
+problem message starts with the name of the check that produced it (see :data:`CHECKS`);
+:attr:`MeshReport.problem_counts` maps each failed check name to the number of offending
+elements.
 """
 
 from __future__ import annotations
@@ -32,13 +31,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import (  # noqa: F401 - re-exported
-    _angles_of_corners,
+from .geometry import (
     _as_index_array,
     _as_pairs,
     _as_points,
-    _cross_of_corners,
+    edge_keys,
     edges_of,
+    half_edges,
     triangle_angles,
     triangle_areas,
     triangle_min_angles,
@@ -50,6 +49,7 @@ __all__ = [
     "MeshInvalid",
     "MeshReport",
     "check_mesh",
+    # geometry re-exported for the callers of the checks
     "edges_of",
     "triangle_angles",
     "triangle_areas",
@@ -84,10 +84,13 @@ CHECKS: dict[str, str] = {
 _SHOW = 5  # how many offending elements a message lists
 
 
-
-
 class MeshInvalid(ValueError):
-    """Raised by :meth:`MeshReport.raise_if_invalid`; lists every problem."""
+    """Raised by :meth:`MeshReport.raise_if_invalid`; lists every problem.
+
+    Attributes:
+        problems: One message per failed check (see :attr:`MeshReport.problems`).
+        report: The report the problems come from, or None.
+    """
 
     def __init__(self, problems: list[str], report: MeshReport | None = None, context: str = ""):
         self.problems = list(problems)
@@ -102,29 +105,31 @@ class MeshInvalid(ValueError):
 class MeshReport:
     """Result of :func:`check_mesh`.
 
-    Attributes
-    ----------
-    valid : True iff ``problems`` is empty.
-    problems : one message per failed check; each starts with the check name
-        (see :data:`CHECKS`), gives the count, the first offending indices
-        and their values.
-    min_angle_deg : smallest interior angle over all triangles whose indices
-        are in range and whose corners are finite (degrees; NaN if none).
-    slivers : number of triangles (restricted to ``sliver_triangles`` if
-        given) with minimum angle < ``sliver_angle_deg``.
-    triangle_count, spring_count : rows of the input arrays.
-    node_count : number of active nodes.
-    problem_counts : check name -> number of offending elements.
-    edge_count, boundary_edge_count, nonmanifold_edge_count,
-    inconsistent_edge_count : counts over the unique triangle edges
-        (boundary = used by one triangle).
-    degenerate_count, flipped_count : triangle counts.
-    max_angle_deg : largest interior angle (degrees; NaN if none).
-    min_area : smallest triangle area (m^2; NaN if none).
-    min_spring_length : shortest spring (m; NaN if none).
-    total_mass : sum of masses of active nodes (kg; None if masses not given).
-    sliver_angle_deg : threshold used for ``slivers``.
-    sliver_indices : triangle indices counted in ``slivers``.
+    Attributes:
+        valid: True iff ``problems`` is empty.
+        problems: One message per failed check; each starts with the check name (see
+            :data:`CHECKS`), gives the count, the first offending indices and their values.
+        min_angle_deg: Smallest interior angle [deg] over all triangles whose indices are in
+            range and whose corners are finite (NaN if none).
+        slivers: Number of triangles (restricted to ``sliver_triangles`` if given) with
+            minimum angle < ``sliver_angle_deg``.
+        triangle_count: Rows of the triangle array.
+        spring_count: Rows of the spring array.
+        node_count: Number of active nodes.
+        problem_counts: Check name -> number of offending elements.
+        edge_count: Unique triangle edges.
+        boundary_edge_count: Unique triangle edges used by one triangle.
+        nonmanifold_edge_count: Unique triangle edges used by more than two triangles.
+        inconsistent_edge_count: Interior edges traversed in the same direction by both
+            triangles.
+        degenerate_count: Triangles with area < ``min_area``.
+        flipped_count: Triangles whose normal points against ``reference_normal``.
+        max_angle_deg: Largest interior angle [deg] (NaN if none).
+        min_area: Smallest triangle area [m^2] (NaN if none).
+        min_spring_length: Shortest spring [m] (NaN if none).
+        total_mass: Sum of the masses of the active nodes [kg] (None if masses not given).
+        sliver_angle_deg: Threshold [deg] used for ``slivers``.
+        sliver_indices: Triangle indices counted in ``slivers``, shape (slivers,) int64.
     """
 
     valid: bool
@@ -155,7 +160,14 @@ class MeshReport:
         return check in self.problem_counts
 
     def raise_if_invalid(self, context: str = "") -> MeshReport:
-        """Raise :class:`MeshInvalid` listing all problems; return self if valid."""
+        """Return self if valid.
+
+        Args:
+            context: Prefix of the error message (e.g. ``"after cut 3"``).
+
+        Raises:
+            MeshInvalid: Listing all problems.
+        """
         if self.problems:
             raise MeshInvalid(self.problems, self, context)
         return self
@@ -171,7 +183,7 @@ class MeshReport:
 
 
 # --------------------------------------------------------------------------
-# the checker
+# problem messages
 # --------------------------------------------------------------------------
 def _fmt(arr) -> str:
     """Compact single-line rendering of a small int/float array (floats as %.6g)."""
@@ -192,325 +204,370 @@ def _first(idx: np.ndarray) -> str:
     return s[:-1] + ", ...]" if len(idx) > _SHOW else s
 
 
-def _pair_keys(sorted_pairs: np.ndarray, n: int) -> np.ndarray:
-    """Unique int64 key of in-range sorted pairs (lo * n + hi)."""
-    return sorted_pairs[:, 0] * np.int64(n) + sorted_pairs[:, 1]
+def _edge_list(keys: np.ndarray, n: int) -> str:
+    """The node pairs of the first few edge keys (see ``edge_keys``), e.g. ``[[0, 1], [1, 2]]``."""
+    k = keys[:_SHOW]
+    return _fmt(np.stack([k // n, k % n], 1))
 
 
-def _check_indices(idx, prefix: str, noun: str, n: int, act, add):
-    """Report negative, out-of-range and inactive node indices of elements ``idx`` (e, k);
-    returns (rows whose indices are in range, idx with bad rows set to node 0)."""
+def _message(count: int, noun: str, what: str, listing: str, values: str = "") -> str:
+    """The text of one problem: ``{count} {noun}(s) {what}; {listing} -> {values}``.
+
+    Args:
+        count: Number of offending elements.
+        noun: What is counted (``"triangle"``, ``"active node"``).
+        what: What is wrong with them (may be empty).
+        listing: The first offenders, e.g. ``"triangles [3, 7]"``.
+        values: Their offending values, e.g. ``"nodes [[0, 1, 9]]"`` (may be empty).
+    """
+    text = f"{count} {noun}(s)" + (f" {what}" if what else "") + f"; {listing}"
+    return text + (f" -> {values}" if values else "")
+
+
+class _Problems:
+    """The problems found so far, in check order, with a count per check name."""
+
+    def __init__(self):
+        self.messages: list[str] = []
+        self.counts: dict[str, int] = {}
+
+    def add(self, check: str, count: int, text: str) -> None:
+        """Record ``count`` offenders of ``check`` (a key of CHECKS) described by ``text``."""
+        self.counts[check] = self.counts.get(check, 0) + int(count)
+        self.messages.append(f"{check}: {text}")
+
+    def offenders(self, check: str, bad: np.ndarray, noun: str, what: str, *values,
+                  label: str | None = None) -> None:
+        """Record the elements ``bad`` failing ``check``, if there are any.
+
+        Args:
+            check: A key of CHECKS.
+            bad: Indices of the offending elements, shape (k,).
+            noun: What an element is (counted as ``{noun}(s)``).
+            what: What is wrong with them.
+            *values: ``(name, array over all elements)`` pairs; the rows of the first few
+                offenders are shown as ``name [values]``.
+            label: What the indices are listed as (``{label}s [...]``; default ``noun``).
+        """
+        if not bad.size:
+            return
+        shown = bad[:_SHOW]
+        text = ", ".join(f"{name} {_fmt(arr[shown])}".lstrip() for name, arr in values)
+        self.add(check, bad.size, _message(bad.size, noun, what, f"{label or noun}s {_first(bad)}", text))
+
+
+# --------------------------------------------------------------------------
+# input normalisation
+# --------------------------------------------------------------------------
+def _active_mask(active, n: int) -> np.ndarray:
+    """Active nodes as a (n,) bool mask (all active if None)."""
+    if active is None:
+        return np.ones(n, dtype=bool)
+    act = np.asarray(active, dtype=bool)
+    if act.shape != (n,):
+        raise ValueError(f"active must have shape ({n},), got {act.shape}")
+    return act
+
+
+def _reference_direction(reference_normal) -> np.ndarray | None:
+    """The reference normal as a (3,) float64 array (None if not given), checked non-zero."""
+    if reference_normal is None:
+        return None
+    ref = np.asarray(reference_normal, dtype=np.float64).reshape(-1)
+    if ref.shape != (3,) or not np.isfinite(ref).all() or not ref.any():
+        raise ValueError(f"reference_normal must be a finite non-zero (3,) vector, got {reference_normal!r}")
+    return ref
+
+
+def _sliver_selection(sliver_triangles, t: int) -> np.ndarray:
+    """The triangles a sliver is counted on as a (t,) bool mask (all if None)."""
+    if sliver_triangles is None:
+        return np.ones(t, dtype=bool)
+    sel = np.asarray(sliver_triangles)
+    if sel.dtype == bool:
+        if sel.shape != (t,):
+            raise ValueError(f"sliver_triangles bool mask must have shape ({t},), got {sel.shape}")
+        return sel
+    sel = sel.reshape(-1)
+    if sel.size and sel.dtype.kind not in "iu":
+        raise ValueError(f"sliver_triangles must be integer indices or a bool mask, got {sel.dtype}")
+    sel = sel.astype(np.int64)
+    if sel.size and (sel.min() < 0 or sel.max() >= t):
+        raise ValueError(f"sliver_triangles index out of range [0, {t})")
+    mask = np.zeros(t, dtype=bool)
+    mask[sel] = True
+    return mask
+
+
+# --------------------------------------------------------------------------
+# the groups of checks, in the order check_mesh runs them
+# --------------------------------------------------------------------------
+def _check_nodes(p, act, masses, expected_total_mass, mass_rtol, found: _Problems):
+    """points_finite, mass_invalid, mass_total.
+
+    Returns:
+        Finite-coordinate mask, shape (n,) bool, and the total active mass [kg] (None without
+        masses).
+    """
+    finite = np.isfinite(p).all(axis=1)
+    found.offenders("points_finite", np.flatnonzero(act & ~finite), "active node",
+                    "with non-finite coordinates", ("", p), label="node")
+    if masses is None:
+        if expected_total_mass is not None:
+            raise ValueError("expected_total_mass given but masses is None")
+        return finite, None
+    m = np.asarray(masses, dtype=np.float64)
+    if m.shape != (len(p),):
+        raise ValueError(f"masses must have shape ({len(p)},), got {m.shape}")
+    found.offenders("mass_invalid", np.flatnonzero(act & ~(np.isfinite(m) & (m > 0))), "active node",
+                    "with non-finite or non-positive mass", ("kg", m), label="node")
+    total = float(np.sum(m[act]))
+    if expected_total_mass is not None:
+        exp = float(expected_total_mass)
+        if not abs(total - exp) <= mass_rtol * abs(exp):
+            found.add("mass_total", 1,
+                      f"total active mass {total!r} kg != expected {exp!r} kg "
+                      f"(rel. error {abs(total - exp) / abs(exp) if exp else float('inf'):.3g} > {mass_rtol:g})")
+    return finite, total
+
+
+def _check_indices(idx, prefix: str, noun: str, n: int, act, found: _Problems):
+    """{prefix}_index_negative, {prefix}_index_range, {prefix}_inactive_node of elements ``idx`` (e, k).
+
+    Returns:
+        Rows whose indices are in range, shape (e,) bool, and ``idx`` with the other rows set
+        to node 0 (safe to index with).
+    """
     neg = (idx < 0).any(axis=1)
     high = (idx >= n).any(axis=1)
     ok = ~(neg | high)
-    for check, mask, what in ((f"{prefix}_index_negative", neg, "negative node index"),
-                              (f"{prefix}_index_range", high, f"node index >= node count {n}")):
-        bad = np.flatnonzero(mask)
-        if bad.size:
-            add(check, bad.size,
-                f"{bad.size} {noun}(s) with {what}; {noun}s {_first(bad)} -> nodes {_fmt(idx[bad[:_SHOW]])}")
+    found.offenders(f"{prefix}_index_negative", np.flatnonzero(neg), noun, "with negative node index",
+                    ("nodes", idx))
+    found.offenders(f"{prefix}_index_range", np.flatnonzero(high), noun, f"with node index >= node count {n}",
+                    ("nodes", idx))
     safe = np.where(ok[:, None], idx, 0)
-    bad = np.flatnonzero(ok & ~act[safe].all(axis=1))
-    if bad.size:
-        add(f"{prefix}_inactive_node", bad.size,
-            f"{bad.size} {noun}(s) referencing inactive nodes; {noun}s {_first(bad)} -> nodes {_fmt(idx[bad[:_SHOW]])}")
+    found.offenders(f"{prefix}_inactive_node", np.flatnonzero(ok & ~act[safe].all(axis=1)), noun,
+                    "referencing inactive nodes", ("nodes", idx))
     return ok, safe
 
 
-def check_mesh(
-    points,
-    triangles,
-    springs,
-    *,
-    active=None,
-    masses=None,
-    extra_springs=None,
-    reference_normal=None,
-    expected_total_mass: float | None = None,
-    sliver_angle_deg: float = 10.0,
-    min_length: float = 1e-12,
-    min_area: float = 1e-18,
-    sliver_triangles=None,
-    mass_rtol: float = 1e-9,
-) -> MeshReport:
-    """Check every mesh invariant and compute quality metrics.
+def _duplicate_rows(rows: np.ndarray, n: int) -> np.ndarray:
+    """Mask (k,) of the rows of ``rows`` (k, 3), each sorted, that occur more than once."""
+    if n < 2_000_000:  # n**3 fits in int64: 1-D keys sort much faster than rows
+        n64 = np.int64(n)
+        _, inv, cnt = np.unique((rows[:, 0] * n64 + rows[:, 1]) * n64 + rows[:, 2],
+                                return_inverse=True, return_counts=True)
+    else:
+        _, inv, cnt = np.unique(rows, axis=0, return_inverse=True, return_counts=True)
+    return cnt[inv.reshape(-1)] > 1
 
-    Parameters
-    ----------
-    points : (n, 3) float, metres.
-    triangles : (t, 3) int node indices.
-    springs : (s, 2) int node indices.
-    active : (n,) bool, optional (default all active).  Inactive slots may hold
-        anything (NaN coordinates, zero mass) but must not be referenced.
-    masses : (n,) float kg, optional; active masses must be finite and > 0.
-    extra_springs : set of pairs or (e, 2) int array, optional; springs allowed
-        not to be triangle edges (e.g. bending springs).  Order within a pair
-        does not matter.
-    reference_normal : (3,) float, optional; triangles whose unit normal has a
-        negative dot product with it are reported as flipped (degenerate
-        triangles are not flip-tested).
-    expected_total_mass : float kg, optional; requires ``masses``; compared to
-        the total active mass with relative tolerance ``mass_rtol``.
-    sliver_angle_deg : degrees; a triangle is a sliver if its min angle is below.
-    min_length : metres; springs shorter than this are reported.
-    min_area : square metres; triangles smaller than this are reported.
-    sliver_triangles : optional int indices or (t,) bool mask; restricts the
-        sliver count (e.g. to triangles created by a cut).  ``min_angle_deg``
-        is always over all triangles.
-    mass_rtol : relative tolerance of the total-mass check.
 
-    Returns
-    -------
-    MeshReport.  Malformed inputs (wrong shapes, non-integer index arrays,
-    ``expected_total_mass`` without ``masses``) raise ``ValueError`` instead.
+def _check_triangle_indices(tri, n: int, act, found: _Problems):
+    """tri_index_negative, tri_index_range, tri_inactive_node, tri_repeated_vertex, tri_duplicate.
 
-    Each cause is reported once: geometric checks skip elements with bad
-    indices or non-finite corners, topological checks skip elements with
-    out-of-range indices, and spring/edge set comparisons skip self pairs.
+    Returns:
+        In-range rows, shape (t,) bool; ``tri`` safe to index with (bad rows -> node 0); rows
+        with a repeated vertex, shape (t,) bool.
+    """
+    ok, safe = _check_indices(tri, "tri", "triangle", n, act, found)
+    repeated = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
+    found.offenders("tri_repeated_vertex", np.flatnonzero(repeated), "triangle",
+                    "without three distinct vertices", ("nodes", tri))
+    cand = np.flatnonzero(ok & ~repeated)
+    if cand.size > 1:
+        found.offenders("tri_duplicate", cand[_duplicate_rows(np.sort(tri[cand], axis=1), n)], "triangle",
+                        "sharing their vertex set with another", ("nodes", tri))
+    return ok, safe, repeated
+
+
+@dataclass
+class _Geometry:
+    """Per-triangle geometry, NaN / False for triangles with bad indices or corners."""
+
+    min_angles: np.ndarray  # [deg], (t,)
+    areas: np.ndarray  # [m^2], (t,)
+    degenerate: np.ndarray  # (t,) bool
+    flipped: np.ndarray  # (t,) bool
+    max_angle: float = float("nan")  # [deg]
+
+
+def _check_triangle_geometry(p, tri, usable, min_area: float, ref, found: _Problems) -> _Geometry:
+    """tri_degenerate, tri_flipped (against ``ref``, if given) over the ``usable`` triangles (t,) bool."""
+    t = len(tri)
+    geo = _Geometry(np.full(t, np.nan), np.full(t, np.nan), np.zeros(t, bool), np.zeros(t, bool))
+    idx = np.flatnonzero(usable)
+    if not idx.size:
+        return geo
+    angles = triangle_angles(p, tri[idx])
+    geo.min_angles[idx] = angles.min(axis=1)
+    geo.max_angle = float(angles.max())
+    geo.areas[idx] = triangle_areas(p, tri[idx])
+    geo.degenerate[idx] = geo.areas[idx] < min_area
+    found.offenders("tri_degenerate", np.flatnonzero(geo.degenerate), "triangle",
+                    f"with area < min_area={min_area:g} m^2", ("m^2", geo.areas))
+    if ref is not None:
+        cosine = np.full(t, np.nan)
+        cosine[idx] = triangle_normals(p, tri[idx]) @ (ref / np.linalg.norm(ref))
+        geo.flipped[idx] = (cosine[idx] < 0) & ~geo.degenerate[idx]
+        found.offenders("tri_flipped", np.flatnonzero(geo.flipped), "triangle",
+                        f"with normal against reference {_fmt(ref)}", ("cos(normal, ref)", cosine))
+    return geo
+
+
+@dataclass
+class _Edges:
+    """The unique triangle edges and their topology counts."""
+
+    keys: np.ndarray  # edge_keys of the unique edges, (e,) int64, sorted
+    boundary: int = 0
+    nonmanifold: int = 0
+    inconsistent: int = 0
+
+
+def _check_edge_topology(tri, n: int, usable, found: _Problems) -> _Edges:
+    """edge_nonmanifold, winding_inconsistent over the ``usable`` triangles (t,) bool."""
+    idx = np.flatnonzero(usable)
+    if not idx.size:
+        return _Edges(np.zeros(0, dtype=np.int64))
+    he = half_edges(tri[idx])
+    he_tri = np.repeat(idx, 3)
+    sign = np.where(he[:, 0] < he[:, 1], 1, -1)
+    keys, inv, cnt = np.unique(edge_keys(np.sort(he, axis=1), n), return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    edges = _Edges(keys, boundary=int((cnt == 1).sum()))
+
+    nonman = np.flatnonzero(cnt > 2)
+    edges.nonmanifold = int(nonman.size)
+    if nonman.size:
+        found.add("edge_nonmanifold", nonman.size, _message(
+            nonman.size, "edge", "shared by more than two triangles", f"edges {_edge_list(keys[nonman], n)}",
+            f"triangle counts {_fmt(cnt[nonman[:_SHOW]])}; triangles {_first(np.unique(he_tri[cnt[inv] > 2]))}"))
+
+    inconsistent = (cnt == 2) & (np.bincount(inv, weights=sign, minlength=len(keys)) != 0)
+    edges.inconsistent = int(inconsistent.sum())
+    if edges.inconsistent:
+        found.add("winding_inconsistent", edges.inconsistent, _message(
+            edges.inconsistent, "interior edge", "traversed in the same direction by both triangles",
+            f"edges {_edge_list(keys[inconsistent], n)}; triangles {_first(np.unique(he_tri[inconsistent[inv]]))}"))
+    return edges
+
+
+def _check_spring_pairs(spr, n: int, act, tri_edge_keys, extra_springs, found: _Problems):
+    """spring_index_negative, spring_index_range, spring_inactive_node, spring_self,
+    spring_duplicate, spring_stray, spring_missing.
+
+    Returns:
+        Springs with in-range indices joining two distinct nodes, shape (s,) bool, and
+        ``spr`` safe to index with (bad rows -> node 0).
+    """
+    ok, safe = _check_indices(spr, "spring", "spring", n, act, found)
+    self_pair = spr[:, 0] == spr[:, 1]
+    found.offenders("spring_self", np.flatnonzero(self_pair), "self spring", "", ("nodes", spr), label="spring")
+    pair_idx = np.flatnonzero(ok & ~self_pair)
+    keys = edge_keys(np.sort(spr[pair_idx], axis=1), n)
+    spring_keys, inv, cnt = np.unique(keys, return_inverse=True, return_counts=True)
+    found.offenders("spring_duplicate", pair_idx[cnt[inv.reshape(-1)] > 1], "spring",
+                    "connecting the same node pair as another (either order)", ("nodes", spr))
+    if pair_idx.size:
+        extra = np.sort(_as_pairs(extra_springs, "extra_springs"), axis=1)
+        extra = extra[(extra >= 0).all(axis=1) & (extra < n).all(axis=1) & (extra[:, 0] != extra[:, 1])]
+        stray = ~np.isin(keys, np.union1d(tri_edge_keys, edge_keys(extra, n)))
+        found.offenders("spring_stray", pair_idx[stray], "spring",
+                        "that are neither triangle edges nor allowed extra springs", ("nodes", spr))
+    missing = tri_edge_keys[~np.isin(tri_edge_keys, spring_keys, assume_unique=True)]
+    if missing.size:
+        found.add("spring_missing", missing.size, _message(
+            missing.size, "triangle edge", "without a spring",
+            f"edges {_edge_list(missing, n)}" + (", ..." if missing.size > _SHOW else "")))
+    return ok & ~self_pair, safe
+
+
+def _check_spring_lengths(p, spr, usable, min_length: float, found: _Problems) -> np.ndarray:
+    """spring_zero_length over the ``usable`` springs (s,) bool.
+
+    Returns:
+        Spring lengths [m], shape (s,), NaN where not usable.
+    """
+    lengths = np.full(len(spr), np.nan)
+    idx = np.flatnonzero(usable)
+    lengths[idx] = np.linalg.norm(p[spr[idx, 1]] - p[spr[idx, 0]], axis=1)
+    found.offenders("spring_zero_length", idx[lengths[idx] < min_length], "spring",
+                    f"shorter than min_length={min_length:g} m", ("nodes", spr), ("lengths m", lengths))
+    return lengths
+
+
+def _nanmin(x: np.ndarray) -> float:
+    """Smallest finite value of ``x`` (NaN if none)."""
+    x = x[np.isfinite(x)]
+    return float(x.min()) if x.size else float("nan")
+
+
+# --------------------------------------------------------------------------
+# the checker
+# --------------------------------------------------------------------------
+def check_mesh(points, triangles, springs, *, active=None, masses=None, extra_springs=None,
+               reference_normal=None, expected_total_mass: float | None = None,
+               sliver_angle_deg: float = 10.0, min_length: float = 1e-12, min_area: float = 1e-18,
+               sliver_triangles=None, mass_rtol: float = 1e-9) -> MeshReport:
+    """Check every mesh invariant (see :data:`CHECKS`) and compute quality metrics.
+
+    Each cause is reported once: geometric checks skip elements with bad indices or non-finite
+    corners, topological checks skip elements with out-of-range indices, and spring/edge set
+    comparisons skip self pairs.
+
+    Args:
+        points: Node positions [m], shape (n, 3).
+        triangles: Node indices, shape (t, 3) integer.
+        springs: Node indices, shape (s, 2) integer.
+        active: Live nodes, shape (n,) bool (default all). Inactive slots may hold anything
+            (NaN coordinates, zero mass) but must not be referenced.
+        masses: Node masses [kg], shape (n,); active masses must be finite and > 0.
+        extra_springs: Springs allowed not to be triangle edges (e.g. bending springs), a set
+            of pairs or shape (e, 2) integer; order within a pair does not matter.
+        reference_normal: Shape (3,); triangles whose unit normal has a negative dot product
+            with it are flipped (degenerate triangles are not flip-tested).
+        expected_total_mass: [kg], requires ``masses``; compared to the total active mass
+            with relative tolerance ``mass_rtol``.
+        sliver_angle_deg: [deg]; a triangle is a sliver if its minimum angle is below.
+        min_length: [m]; springs shorter than this are reported.
+        min_area: [m^2]; triangles smaller than this are reported.
+        sliver_triangles: Integer indices or a (t,) bool mask restricting the sliver count
+            (e.g. to triangles made by a cut); ``min_angle_deg`` is always over all triangles.
+        mass_rtol: Relative tolerance of the total-mass check.
+
+    Returns:
+        The report: every problem found, and the quality metrics.
+
+    Raises:
+        ValueError: Malformed input (wrong shapes, non-integer index arrays, a zero reference
+            normal, ``expected_total_mass`` without ``masses``).
     """
     p = _as_points(points)
     n = len(p)
     tri = _as_index_array(triangles, 3, "triangles")
     spr = _as_index_array(springs, 2, "springs")
-    t, s = len(tri), len(spr)
+    act = _active_mask(active, n)
+    ref = _reference_direction(reference_normal)
+    sliver_mask = _sliver_selection(sliver_triangles, len(tri))
 
-    if active is None:
-        act = np.ones(n, dtype=bool)
-    else:
-        act = np.asarray(active, dtype=bool)
-        if act.shape != (n,):
-            raise ValueError(f"active must have shape ({n},), got {act.shape}")
-
-    problems: list[str] = []
-    counts: dict[str, int] = {}
-
-    def add(check: str, count: int, text: str) -> None:
-        counts[check] = counts.get(check, 0) + int(count)
-        problems.append(f"{check}: {text}")
-
-    # ---------------------------------------------------------------- nodes
-    finite_pt = np.isfinite(p).all(axis=1)
-    bad = np.flatnonzero(act & ~finite_pt)
-    if bad.size:
-        add("points_finite", bad.size,
-            f"{bad.size} active node(s) with non-finite coordinates; nodes {_first(bad)} -> {_fmt(p[bad[:_SHOW]])}")
-
-    total_mass: float | None = None
-    if masses is not None:
-        m = np.asarray(masses, dtype=np.float64)
-        if m.shape != (n,):
-            raise ValueError(f"masses must have shape ({n},), got {m.shape}")
-        bad = np.flatnonzero(act & ~(np.isfinite(m) & (m > 0)))
-        if bad.size:
-            add("mass_invalid", bad.size,
-                f"{bad.size} active node(s) with non-finite or non-positive mass; nodes {_first(bad)} "
-                f"-> kg {_fmt(m[bad[:_SHOW]])}")
-        total_mass = float(np.sum(m[act]))
-        if expected_total_mass is not None:
-            exp = float(expected_total_mass)
-            if not abs(total_mass - exp) <= mass_rtol * abs(exp):
-                add("mass_total", 1,
-                    f"total active mass {total_mass!r} kg != expected {exp!r} kg "
-                    f"(rel. error {abs(total_mass - exp) / abs(exp) if exp else float('inf'):.3g} > {mass_rtol:g})")
-    elif expected_total_mass is not None:
-        raise ValueError("expected_total_mass given but masses is None")
-
-    # ---------------------------------------------------- triangle indices
-    tri_ok, safe_tri = _check_indices(tri, "tri", "triangle", n, act, add)
-
-    tri_rep = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
-    bad = np.flatnonzero(tri_rep)
-    if bad.size:
-        add("tri_repeated_vertex", bad.size,
-            f"{bad.size} triangle(s) without three distinct vertices; triangles {_first(bad)} "
-            f"-> nodes {_fmt(tri[bad[:_SHOW]])}")
-
-    cand = np.flatnonzero(tri_ok & ~tri_rep)
-    if cand.size > 1:
-        st = np.sort(tri[cand], axis=1)
-        if n < 2_000_000:  # n**3 fits in int64: 1-D keys sort much faster than rows
-            n64 = np.int64(n)
-            _, inv, cnt = np.unique((st[:, 0] * n64 + st[:, 1]) * n64 + st[:, 2],
-                                    return_inverse=True, return_counts=True)
-        else:
-            _, inv, cnt = np.unique(st, axis=0, return_inverse=True, return_counts=True)
-        inv = inv.reshape(-1)
-        bad = cand[cnt[inv] > 1]
-        if bad.size:
-            add("tri_duplicate", bad.size,
-                f"{bad.size} triangle(s) sharing their vertex set with another; triangles {_first(bad)} "
-                f"-> nodes {_fmt(tri[bad[:_SHOW]])}")
-
-    # ------------------------------------------------- triangle geometry
-    tri_geo = tri_ok & finite_pt[safe_tri].all(axis=1)
-    geo_idx = np.flatnonzero(tri_geo)
-    min_angles = np.full(t, np.nan)
-    areas = np.full(t, np.nan)
-    max_angle = float("nan")
-    degenerate = np.zeros(t, dtype=bool)
-    flipped = np.zeros(t, dtype=bool)
-    if geo_idx.size:
-        c = p[tri[geo_idx]]
-        ang = _angles_of_corners(c)
-        min_angles[geo_idx] = ang.min(axis=1)
-        max_angle = float(ang.max())
-        cr = _cross_of_corners(c)
-        nrm = np.linalg.norm(cr, axis=1)
-        areas[geo_idx] = 0.5 * nrm
-        degenerate[geo_idx] = areas[geo_idx] < min_area
-        bad = np.flatnonzero(degenerate)
-        if bad.size:
-            add("tri_degenerate", bad.size,
-                f"{bad.size} triangle(s) with area < min_area={min_area:g} m^2; triangles {_first(bad)} "
-                f"-> m^2 {_fmt(areas[bad[:_SHOW]])}")
-        if reference_normal is not None:
-            ref = np.asarray(reference_normal, dtype=np.float64).reshape(-1)
-            rn = np.linalg.norm(ref) if ref.shape == (3,) else 0.0
-            if not (np.isfinite(rn) and rn > 0):
-                raise ValueError(f"reference_normal must be a finite non-zero (3,) vector, got {reference_normal!r}")
-            cosang = (cr @ (ref / rn)) / np.where(nrm > 0, nrm, 1.0)
-            flipped[geo_idx] = (cosang < 0) & ~degenerate[geo_idx]
-            bad = np.flatnonzero(flipped)
-            if bad.size:
-                cos_full = np.full(t, np.nan)
-                cos_full[geo_idx] = cosang
-                add("tri_flipped", bad.size,
-                    f"{bad.size} triangle(s) with normal against reference {_fmt(ref)}; triangles {_first(bad)} -> "
-                    f"cos(normal, ref) {_fmt(cos_full[bad[:_SHOW]])}")
-    elif reference_normal is not None:
-        ref = np.asarray(reference_normal, dtype=np.float64).reshape(-1)
-        if ref.shape != (3,) or not np.isfinite(ref).all() or not ref.any():
-            raise ValueError(f"reference_normal must be a finite non-zero (3,) vector, got {reference_normal!r}")
-
-    # ------------------------------------------------------ edge topology
-    topo_idx = np.flatnonzero(tri_ok & ~tri_rep)
-    edge_keys = np.zeros(0, dtype=np.int64)
-    boundary_count = nonmanifold_count = inconsistent_count = 0
-    if topo_idx.size:
-        he = tri[topo_idx][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)  # directed half-edges
-        he_tri = np.repeat(topo_idx, 3)
-        lo, hi = he.min(axis=1), he.max(axis=1)
-        sign = np.where(he[:, 0] < he[:, 1], 1, -1)
-        edge_keys, inv, cnt = np.unique(lo * np.int64(n) + hi, return_inverse=True, return_counts=True)
-        inv = inv.reshape(-1)
-        sign_sum = np.bincount(inv, weights=sign, minlength=len(edge_keys))
-        boundary_count = int((cnt == 1).sum())
-
-        nonman = np.flatnonzero(cnt > 2)
-        nonmanifold_count = int(nonman.size)
-        if nonman.size:
-            k = edge_keys[nonman[:_SHOW]]
-            add("edge_nonmanifold", nonman.size,
-                f"{nonman.size} edge(s) shared by more than two triangles; edges {_fmt(np.stack([k // n, k % n], 1))} "
-                f"-> triangle counts {_fmt(cnt[nonman[:_SHOW]])}; triangles {_first(np.unique(he_tri[cnt[inv] > 2]))}")
-
-        incons = (cnt == 2) & (sign_sum != 0)
-        inconsistent_count = int(incons.sum())
-        if inconsistent_count:
-            k = edge_keys[np.flatnonzero(incons)[:_SHOW]]
-            add("winding_inconsistent", inconsistent_count,
-                f"{inconsistent_count} interior edge(s) traversed in the same direction by both triangles; "
-                f"edges {_fmt(np.stack([k // n, k % n], 1))}; triangles {_first(np.unique(he_tri[incons[inv]]))}")
-
-    # ------------------------------------------------------ spring indices
-    spr_ok, safe_spr = _check_indices(spr, "spring", "spring", n, act, add)
-
-    spr_self = spr[:, 0] == spr[:, 1]
-    bad = np.flatnonzero(spr_self)
-    if bad.size:
-        add("spring_self", bad.size,
-            f"{bad.size} self spring(s); springs {_first(bad)} -> nodes {_fmt(spr[bad[:_SHOW]])}")
-
-    pair_idx = np.flatnonzero(spr_ok & ~spr_self)
-    spring_keys = np.zeros(0, dtype=np.int64)
-    if pair_idx.size:
-        sp = np.sort(spr[pair_idx], axis=1)
-        keys = _pair_keys(sp, n)
-        spring_keys, inv, cnt = np.unique(keys, return_inverse=True, return_counts=True)
-        inv = inv.reshape(-1)
-        bad = pair_idx[cnt[inv] > 1]
-        if bad.size:
-            add("spring_duplicate", bad.size,
-                f"{bad.size} spring(s) connecting the same node pair as another (either order); springs {_first(bad)} "
-                f"-> nodes {_fmt(spr[bad[:_SHOW]])}")
-
-        # stray springs: neither a triangle edge nor allowed
-        extra = _as_pairs(extra_springs, "extra_springs")
-        extra = np.sort(extra, axis=1)
-        extra = extra[(extra >= 0).all(axis=1) & (extra < n).all(axis=1) & (extra[:, 0] != extra[:, 1])]
-        allowed = np.union1d(edge_keys, _pair_keys(extra, n))
-        stray = ~np.isin(keys, allowed)
-        bad = pair_idx[stray]
-        if bad.size:
-            add("spring_stray", bad.size,
-                f"{bad.size} spring(s) that are neither triangle edges nor allowed extra springs; "
-                f"springs {_first(bad)} "
-                f"-> nodes {_fmt(spr[bad[:_SHOW]])}")
-
-    # springs missing for triangle edges
-    if edge_keys.size:
-        missing = edge_keys[~np.isin(edge_keys, spring_keys, assume_unique=True)]
-        if missing.size:
-            k = missing[:_SHOW]
-            add("spring_missing", missing.size,
-                f"{missing.size} triangle edge(s) without a spring; edges {_fmt(np.stack([k // n, k % n], 1))}"
-                + (", ..." if missing.size > _SHOW else ""))
-
-    # spring lengths
-    lengths = np.full(s, np.nan)
-    len_idx = np.flatnonzero(spr_ok & ~spr_self & finite_pt[safe_spr].all(axis=1))
-    if len_idx.size:
-        lengths[len_idx] = np.linalg.norm(p[spr[len_idx, 1]] - p[spr[len_idx, 0]], axis=1)
-        bad = len_idx[lengths[len_idx] < min_length]
-        if bad.size:
-            add("spring_zero_length", bad.size,
-                f"{bad.size} spring(s) shorter than min_length={min_length:g} m; springs {_first(bad)} "
-                f"-> nodes {_fmt(spr[bad[:_SHOW]])}, lengths m {_fmt(lengths[bad[:_SHOW]])}")
-
-    # ------------------------------------------------------------ quality
-    if sliver_triangles is None:
-        sliver_mask = np.ones(t, dtype=bool)
-    else:
-        sel = np.asarray(sliver_triangles)
-        if sel.dtype == bool:
-            if sel.shape != (t,):
-                raise ValueError(f"sliver_triangles bool mask must have shape ({t},), got {sel.shape}")
-            sliver_mask = sel
-        else:
-            sel = sel.reshape(-1)
-            if sel.size and sel.dtype.kind not in "iu":
-                raise ValueError(f"sliver_triangles must be integer indices or a bool mask, got {sel.dtype}")
-            sel = sel.astype(np.int64)
-            if sel.size and (sel.min() < 0 or sel.max() >= t):
-                raise ValueError(f"sliver_triangles index out of range [0, {t})")
-            sliver_mask = np.zeros(t, dtype=bool)
-            sliver_mask[sel] = True
+    found = _Problems()
+    finite, total_mass = _check_nodes(p, act, masses, expected_total_mass, mass_rtol, found)
+    tri_ok, tri_safe, tri_repeated = _check_triangle_indices(tri, n, act, found)
+    tri_geo = tri_ok & finite[tri_safe].all(axis=1)
+    geo = _check_triangle_geometry(p, tri, tri_geo, min_area, ref, found)
+    edges = _check_edge_topology(tri, n, tri_ok & ~tri_repeated, found)
+    spr_pair, spr_safe = _check_spring_pairs(spr, n, act, edges.keys, extra_springs, found)
+    lengths = _check_spring_lengths(p, spr, spr_pair & finite[spr_safe].all(axis=1), min_length, found)
     with np.errstate(invalid="ignore"):
-        sliver_idx = np.flatnonzero(sliver_mask & tri_geo & (min_angles < sliver_angle_deg))
-
-    def _nanmin(x: np.ndarray) -> float:
-        x = x[np.isfinite(x)]
-        return float(x.min()) if x.size else float("nan")
+        slivers = np.flatnonzero(sliver_mask & tri_geo & (geo.min_angles < sliver_angle_deg))
 
     return MeshReport(
-        valid=not problems,
-        problems=problems,
-        min_angle_deg=_nanmin(min_angles),
-        slivers=int(sliver_idx.size),
-        triangle_count=t,
-        spring_count=s,
-        node_count=int(act.sum()),
-        problem_counts=counts,
-        edge_count=int(edge_keys.size),
-        boundary_edge_count=boundary_count,
-        nonmanifold_edge_count=nonmanifold_count,
-        inconsistent_edge_count=inconsistent_count,
-        degenerate_count=int(degenerate.sum()),
-        flipped_count=int(flipped.sum()),
-        max_angle_deg=max_angle,
-        min_area=_nanmin(areas),
-        min_spring_length=_nanmin(lengths),
-        total_mass=total_mass,
-        sliver_angle_deg=float(sliver_angle_deg),
-        sliver_indices=sliver_idx,
+        valid=not found.messages, problems=found.messages, problem_counts=found.counts,
+        min_angle_deg=_nanmin(geo.min_angles), max_angle_deg=geo.max_angle,
+        slivers=int(slivers.size), sliver_indices=slivers, sliver_angle_deg=float(sliver_angle_deg),
+        triangle_count=len(tri), spring_count=len(spr), node_count=int(act.sum()),
+        edge_count=int(edges.keys.size), boundary_edge_count=edges.boundary,
+        nonmanifold_edge_count=edges.nonmanifold, inconsistent_edge_count=edges.inconsistent,
+        degenerate_count=int(geo.degenerate.sum()), flipped_count=int(geo.flipped.sum()),
+        min_area=_nanmin(geo.areas), min_spring_length=_nanmin(lengths), total_mass=total_mass,
     )

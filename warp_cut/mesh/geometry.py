@@ -4,6 +4,10 @@ Conventions: ``points`` (n, 3) float64 [m]; ``triangles`` (t, 3) integer node in
 counter-clockwise seen from the side the normal ``(p1 - p0) x (p2 - p0)`` points to.
 Negative indices are an error here (Warp, like numpy, would wrap them silently).
 Degenerate triangles never give NaN.
+
+Every triangle area and every triangle edge list in warp_cut comes from here: areas from
+:func:`triangle_areas`, edges from :func:`half_edges` (directed, in winding order) and
+:func:`edges_of` (unique, undirected).
 """
 
 from __future__ import annotations
@@ -11,13 +15,18 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["triangle_angles", "triangle_min_angles", "triangle_areas", "triangle_normals",
-           "edges_of"]
+           "half_edges", "edges_of", "edge_keys", "boundary_nodes"]
 
 
 # --------------------------------------------------------------------------
 # input normalisation
 # --------------------------------------------------------------------------
 def _as_points(points) -> np.ndarray:
+    """Points as float64, shape (n, 3) (an empty input gives (0, 3)).
+
+    Raises:
+        ValueError: The points are not of shape (n, 3).
+    """
     p = np.asarray(points, dtype=np.float64)
     if p.size == 0:
         return p.reshape(0, 3)
@@ -27,6 +36,17 @@ def _as_points(points) -> np.ndarray:
 
 
 def _as_index_array(a, width: int, name: str, keep_dtype: bool = False) -> np.ndarray:
+    """An integer index array of shape (k, width).
+
+    Args:
+        a: Index rows, array-like of shape (k, width) (an empty input gives (0, width)).
+        width: Indices per row (3 for triangles, 2 for springs).
+        name: Name used in error messages.
+        keep_dtype: Keep the integer dtype of ``a`` instead of converting to int64.
+
+    Raises:
+        ValueError: Wrong shape or a non-integer dtype.
+    """
     arr = np.asarray(a)
     if arr.size == 0:
         return np.zeros((0, width), dtype=arr.dtype if (keep_dtype and arr.dtype.kind in "iu") else np.int64)
@@ -38,7 +58,11 @@ def _as_index_array(a, width: int, name: str, keep_dtype: bool = False) -> np.nd
 
 
 def _check_index_range(idx: np.ndarray, n: int, name: str) -> None:
-    """Strict range check used by the low-level geometry helpers."""
+    """Strict range check used by the low-level geometry helpers.
+
+    Raises:
+        ValueError: An index of ``idx`` is outside [0, n).
+    """
     if idx.size and (idx.min() < 0 or idx.max() >= n):
         raise ValueError(
             f"{name} index out of range [0, {n}): min {int(idx.min())}, max {int(idx.max())}"
@@ -46,7 +70,7 @@ def _check_index_range(idx: np.ndarray, n: int, name: str) -> None:
 
 
 def _as_pairs(x, name: str) -> np.ndarray:
-    """Springs given as a set/list of pairs or an (e, 2) array -> (e, 2) int64."""
+    """Node pairs given as None, a set/list of pairs or an (e, 2) array, as (e, 2) int64."""
     if x is None:
         return np.zeros((0, 2), dtype=np.int64)
     if isinstance(x, (set, frozenset)):
@@ -54,19 +78,24 @@ def _as_pairs(x, name: str) -> np.ndarray:
     return _as_index_array(x, 2, name)
 
 
-def _corners(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(t, 3, 3) corner coordinates."""
-    return points[triangles]
+def _checked(points, triangles) -> tuple[np.ndarray, np.ndarray]:
+    """Points (n, 3) float64 and triangles (t, 3) int64, every index in [0, n)."""
+    p = _as_points(points)
+    tri = _as_index_array(triangles, 3, "triangles")
+    _check_index_range(tri, len(p), "triangles")
+    return p, tri
 
 
 # --------------------------------------------------------------------------
 # geometry kernels on corner arrays (t, 3, 3)
 # --------------------------------------------------------------------------
 def _cross_of_corners(c: np.ndarray) -> np.ndarray:
+    """(p1 - p0) x (p2 - p0) [m^2], shape (t, 3), of corners c [m], shape (t, 3, 3)."""
     return np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
 
 
 def _angles_of_corners(c: np.ndarray) -> np.ndarray:
+    """Interior angles [deg], shape (t, 3), of corners c [m], shape (t, 3, 3) (see triangle_angles)."""
     t = c.shape[0]
     if t == 0:
         return np.zeros((0, 3))
@@ -101,62 +130,82 @@ def _angles_of_corners(c: np.ndarray) -> np.ndarray:
 def triangle_angles(points, triangles) -> np.ndarray:
     """Interior angles of every triangle.
 
-    Parameters
-    ----------
-    points : (n, 3) float array, metres.
-    triangles : (t, 3) int array of node indices (must be in ``[0, n)``).
+    Computed as ``atan2(|a x b|, a . b)``, which is accurate for very small and very large
+    angles. Degenerate triangles never give NaN: collinear distinct vertices give
+    ``0/0/180``; if two vertices coincide the angle at the third is 0 and the two coincident
+    vertices share the remaining 180 (90/90); if all three coincide the result is
+    ``(0, 0, 180)``. Angles sum to 180 (up to rounding) for every triangle with finite
+    coordinates; rows with non-finite coordinates are NaN.
 
-    Returns
-    -------
-    (t, 3) float64 array, degrees; column ``k`` is the angle at vertex
-    ``triangles[:, k]``.  Computed as ``atan2(|a x b|, a . b)``, which is
-    accurate for very small and very large angles.  Degenerate triangles
-    never give NaN: collinear distinct vertices give ``0/0/180``; if two
-    vertices coincide the angle at the third is 0 and the two coincident
-    vertices share the remaining 180 (90/90); if all three coincide the
-    result is ``(0, 0, 180)``.  Angles sum to 180 (up to rounding) for every
-    triangle with finite coordinates; rows with non-finite coordinates are
-    NaN.
+    Args:
+        points: Node positions [m], shape (n, 3).
+        triangles: Node indices, shape (t, 3), integer, each in [0, n).
+
+    Returns:
+        Angles [deg], shape (t, 3) float64; column ``k`` is the angle at vertex
+        ``triangles[:, k]``.
+
+    Raises:
+        ValueError: Wrong shapes, a non-integer index array or an index outside [0, n).
     """
-    p = _as_points(points)
-    tri = _as_index_array(triangles, 3, "triangles")
-    _check_index_range(tri, len(p), "triangles")
-    return _angles_of_corners(_corners(p, tri))
+    p, tri = _checked(points, triangles)
+    return _angles_of_corners(p[tri])
 
 
 def triangle_min_angles(points, triangles) -> np.ndarray:
-    """Smallest interior angle of every triangle, ``(t,)`` float64 degrees.
+    """Smallest interior angle of every triangle (a zero-area triangle has 0).
 
-    See :func:`triangle_angles` for the treatment of degenerate triangles
-    (a zero-area triangle has minimum angle 0).
+    Args:
+        points: Node positions [m], shape (n, 3).
+        triangles: Node indices, shape (t, 3), integer, each in [0, n).
+
+    Returns:
+        Minimum angles [deg], shape (t,) float64 (see :func:`triangle_angles` for degenerate
+        triangles).
     """
     ang = triangle_angles(points, triangles)
     return ang.min(axis=1) if ang.size else np.zeros(0)
 
 
 def triangle_areas(points, triangles) -> np.ndarray:
-    """Area of every triangle, ``(t,)`` float64, square metres (>= 0)."""
-    p = _as_points(points)
-    tri = _as_index_array(triangles, 3, "triangles")
-    _check_index_range(tri, len(p), "triangles")
+    """Area of every triangle, ``|(p1 - p0) x (p2 - p0)| / 2``.
+
+    Args:
+        points: Node positions [m], shape (n, 3).
+        triangles: Node indices, shape (t, 3), integer, each in [0, n).
+
+    Returns:
+        Areas [m^2], shape (t,) float64, >= 0.
+
+    Raises:
+        ValueError: Wrong shapes, a non-integer index array or an index outside [0, n).
+    """
+    p, tri = _checked(points, triangles)
     if len(tri) == 0:
         return np.zeros(0)
-    return 0.5 * np.linalg.norm(_cross_of_corners(_corners(p, tri)), axis=1)
+    return 0.5 * np.linalg.norm(_cross_of_corners(p[tri]), axis=1)
 
 
 def triangle_normals(points, triangles) -> np.ndarray:
-    """Unit normals ``(t, 3)`` float64 (dimensionless), right-hand rule.
+    """Unit normals by the right-hand rule, ``normalize((p1 - p0) x (p2 - p0))``.
 
-    ``n = normalize((p1 - p0) x (p2 - p0))``, i.e. counter-clockwise
-    triangles seen from +Z have normal +Z.  Zero-area triangles get the zero
-    vector; rows with non-finite coordinates are NaN.
+    Counter-clockwise triangles seen from +Z have normal +Z. Zero-area triangles get the
+    zero vector; rows with non-finite coordinates are NaN.
+
+    Args:
+        points: Node positions [m], shape (n, 3).
+        triangles: Node indices, shape (t, 3), integer, each in [0, n).
+
+    Returns:
+        Unit normals (dimensionless), shape (t, 3) float64.
+
+    Raises:
+        ValueError: Wrong shapes, a non-integer index array or an index outside [0, n).
     """
-    p = _as_points(points)
-    tri = _as_index_array(triangles, 3, "triangles")
-    _check_index_range(tri, len(p), "triangles")
+    p, tri = _checked(points, triangles)
     if len(tri) == 0:
         return np.zeros((0, 3))
-    cr = _cross_of_corners(_corners(p, tri))
+    cr = _cross_of_corners(p[tri])
     nrm = np.linalg.norm(cr, axis=1)
     out = np.zeros_like(cr)
     ok = nrm > 0
@@ -165,30 +214,64 @@ def triangle_normals(points, triangles) -> np.ndarray:
     return out
 
 
-def edges_of(triangles) -> np.ndarray:
-    """Unique undirected edges of a triangle list.
+def half_edges(triangles) -> np.ndarray:
+    """Directed edges of every triangle in winding order: (v0, v1), (v1, v2), (v2, v0).
 
-    Parameters
-    ----------
-    triangles : (t, 3) integer array.
+    Args:
+        triangles: Node indices, shape (t, 3), integer.
 
-    Returns
-    -------
-    (e, 2) array (same integer dtype as ``triangles``), each row sorted
-    ``(i < j)``, rows sorted lexicographically.  Self pairs ``(i, i)`` coming
-    from triangles with a repeated vertex are not edges and are dropped.
+    Returns:
+        Directed edges, shape (3 t, 2), the dtype of ``triangles``; rows ``3 k .. 3 k + 2``
+        belong to triangle ``k``.
     """
     tri = _as_index_array(triangles, 3, "triangles", keep_dtype=True)
-    if len(tri) == 0:
-        return np.zeros((0, 2), dtype=tri.dtype)
-    e = tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    e = np.sort(e, axis=1)
+    return tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+
+
+def edges_of(triangles, *, return_counts: bool = False):
+    """Unique undirected edges of a triangle list.
+
+    Self pairs ``(i, i)`` coming from triangles with a repeated vertex are not edges and
+    are dropped.
+
+    Args:
+        triangles: Node indices, shape (t, 3), integer.
+        return_counts: Also return how many triangles use each edge.
+
+    Returns:
+        Edges, shape (e, 2), the integer dtype of ``triangles``, each row sorted ``(i < j)``,
+        rows sorted lexicographically; with ``return_counts`` also the triangle count of each
+        edge, shape (e,) int64 (1 on a boundary, 2 inside a manifold mesh).
+    """
+    e = np.sort(half_edges(triangles), axis=1)
     e = e[e[:, 0] != e[:, 1]]
-    if len(e) == 0:
-        return e
-    return np.unique(e, axis=0)
+    return np.unique(e, axis=0, return_counts=return_counts)
 
 
-# --------------------------------------------------------------------------
-# report
-# --------------------------------------------------------------------------
+def edge_keys(pairs: np.ndarray, node_count: int) -> np.ndarray:
+    """One int64 key per node pair, ``lo * node_count + hi``, for fast set operations.
+
+    Args:
+        pairs: Node pairs, shape (e, 2), each row sorted (lo <= hi) and in [0, node_count).
+        node_count: Number of node slots (the key base).
+
+    Returns:
+        Keys, shape (e,) int64; equal keys mean equal pairs.
+    """
+    return pairs[:, 0].astype(np.int64) * np.int64(node_count) + pairs[:, 1]
+
+
+def boundary_nodes(node_count: int, triangles) -> np.ndarray:
+    """Nodes on a boundary edge (an edge used by exactly one triangle).
+
+    Args:
+        node_count: Number of nodes (the length of the mask).
+        triangles: Node indices, shape (t, 3), integer, each in [0, node_count).
+
+    Returns:
+        Mask, shape (node_count,) bool.
+    """
+    edges, counts = edges_of(np.asarray(triangles, dtype=np.int64).reshape(-1, 3), return_counts=True)
+    mask = np.zeros(node_count, dtype=bool)
+    mask[edges[counts == 1].ravel()] = True
+    return mask

@@ -19,8 +19,17 @@ __all__ = ["skin_patch_mesh"]
 
 
 def _zip_rows(lower, upper, lower_x, upper_x):
-    """Triangulate the strip between two rows of node indices sorted by x (both spanning
-    the same x range), always adding the shorter of the two candidate diagonals."""
+    """Triangulate the strip between two rows of nodes, always adding the shorter diagonal.
+
+    Args:
+        lower: Node indices of the lower row, sorted by x.
+        upper: Node indices of the upper row, sorted by x (the same x range).
+        lower_x: x [m] of the lower row's nodes.
+        upper_x: x [m] of the upper row's nodes.
+
+    Returns:
+        Triangles as (i, j, k) tuples, counter-clockwise seen from +Z.
+    """
     tris = []
     i = j = 0
     while i < len(lower) - 1 or j < len(upper) - 1:
@@ -38,12 +47,24 @@ def _zip_rows(lower, upper, lower_x, upper_x):
 
 
 def skin_patch_mesh(size=(0.10, 0.06), spacing: float = 2.0e-3, origin=None):
-    """Points (n, 3) [m] and triangles (t, 3) of a size[0] x size[1] patch centred on the origin.
+    """A size[0] x size[1] skin patch in the XY plane, centred on the origin.
 
-    The spacing [m] is adjusted so that whole numbers of rows and columns fit the size exactly:
+    The spacing is adjusted so that whole numbers of rows and columns fit the size exactly:
     the row pitch is size[1] / round(size[1] / (spacing sqrt(3)/2)) and the column pitch is
     fitted to it (about 2/sqrt(3) x the row pitch). Patches only a few spacings wide have
     flatter triangles.
+
+    Args:
+        size: Width (x) and height (y) [m].
+        spacing: Target node spacing [m].
+        origin: Optional offset [m], shape (3,), added to every point.
+
+    Returns:
+        Points [m], shape (n, 3) float64, and triangles, shape (t, 3) int64, counter-clockwise
+        seen from +Z.
+
+    Raises:
+        InputError: A non-positive size or spacing, or more than 2e7 nodes.
     """
     width, height = (float(v) for v in size)
     spacing = float(spacing)

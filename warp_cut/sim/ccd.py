@@ -29,9 +29,13 @@ TIE_TOLERANCE = 1.0e-9
 class SweptContact:
     """The first contact of a swept tool with the nodes within one interval.
 
-    tau: fraction of the interval in [0, 1]; time: t_start + tau * interval [s];
-    node: lowest index among the nodes reached first; point: mean position [m], (3,), of the
-    nodes reached first (within TIE_TOLERANCE), at that time; node_count: how many they are.
+    Attributes:
+        tau: Fraction of the interval, in [0, 1].
+        time: t_start + tau * interval [s].
+        node: Lowest index among the nodes reached first.
+        point: Mean position [m], shape (3,), of the nodes reached first (within
+            TIE_TOLERANCE), at that time.
+        node_count: How many nodes were reached first.
     """
 
     tau: float
@@ -42,17 +46,23 @@ class SweptContact:
 
 
 def _vec3d(x) -> wp.vec3d:
+    """Three numbers as a Warp float64 vector."""
     return wp.vec3d(*np.asarray(x, dtype=np.float64))
 
 
 class ContinuousDetector:
-    """Reusable device buffers for ``first_contact`` on one device (resized with the node count)."""
+    """Reusable device buffers for ``first_contact`` on one device (resized with the node count).
+
+    Args:
+        device: Warp device the detection runs on.
+    """
 
     def __init__(self, device: str = "cpu"):
         self.device = device
         self._size = -1
 
     def _buffers(self, n: int) -> None:
+        """(Re)allocate the per-node and reduction buffers for ``n`` nodes."""
         if n == self._size:
             return
         d = self.device
@@ -68,14 +78,22 @@ class ContinuousDetector:
                       interval: float = 0.0, overlap: float = 0.0) -> SweptContact | None:
         """First contact of the tool moving linearly from ``start`` to ``end`` (radius of ``end``).
 
-        positions (n,) vec3 [m] and velocities (n,) vec3 [m/s] on this device at the start;
-        nodes move by ``interval * velocity`` over the interval [s] (velocities None or
-        interval 0: nodes held still); node_flags (n,) int32 (inactive nodes are skipped).
-        ``overlap`` extends the motion linearly past ``end`` by that fraction of the interval,
-        so a contact exactly at the end (where a per-step test and this one may round
-        differently) is found in this interval. Returns None if no node is reached.
-        """
+        Args:
+            positions: Node positions at the start [m], shape (n,) vec3, on this device.
+            velocities: Node velocities [m/s], shape (n,) vec3, or None (nodes held still);
+                nodes move by ``interval * velocity`` over the interval.
+            node_flags: NODE_ACTIVE bits, shape (n,) int32 (inactive nodes are skipped).
+            start: The tool pose at ``t_start``.
+            end: The tool pose at ``t_start + interval``.
+            t_start: Time of ``start`` [s].
+            interval: Duration of the motion [s] (0: nodes held still).
+            overlap: Extends the motion linearly past ``end`` by this fraction of the
+                interval, so a contact exactly at the end (where a per-step test and this one
+                may round differently) is found in this interval.
 
+        Returns:
+            The first contact, or None if no node is reached.
+        """
         n = positions.shape[0]
         if n == 0 or end.radius <= 0.0:
             return None
@@ -109,13 +127,25 @@ class ContinuousDetector:
 
 def swept_first_contact(points, start: Tool, end: Tool, *, velocities=None, interval: float = 1.0,
                         t_start: float = 0.0, active=None, device: str = "cpu") -> SweptContact | None:
-    """First contact of nodes ``points`` (n, 3) [m] with the tool moving linearly from pose
-    ``start`` at t_start to pose ``end`` at t_start + interval [s].
+    """First contact of nodes with the tool moving linearly from one pose to the next.
 
-    velocities: None (nodes still) or (n, 3) [m/s]; active: None or (n,) bool mask of the
-    nodes to test. Returns a SweptContact, or None if the tool reaches no node.
+    Args:
+        points: Node positions [m], shape (n, 3).
+        start: The tool pose at ``t_start``.
+        end: The tool pose at ``t_start + interval``.
+        velocities: Node velocities [m/s], shape (n, 3), or None (nodes still).
+        interval: Duration of the motion [s], > 0.
+        t_start: Time of ``start`` [s].
+        active: Mask of the nodes to test, shape (n,) bool, or None (all).
+        device: Warp device the detection runs on.
+
+    Returns:
+        The first contact, or None if the tool reaches no node.
+
+    Raises:
+        InputError: Bad shapes, non-finite values, a non-positive interval, or poses that are
+            not Tools.
     """
-
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
         raise InputError(f"points must be finite with shape (n, 3), got {pts.shape}")

@@ -12,13 +12,25 @@ __all__ = ["cylinder_contacts"]
 
 
 def cylinder_contacts(points, p0, p1, radius: float, device: str = "cpu") -> np.ndarray:
-    """Mask (n,) bool of the points (n, 3) [m] inside the cylinder p0 -> p1 of ``radius`` [m].
+    """Which points lie inside a cylinder, by the paper's test (section 2.2).
 
-    The paper's test: a point is inside when it projects onto the axis segment (both angles
-    at p0 and p1 at most 90 degrees) and its distance to the axis is strictly below the radius.
-    A zero-length or zero-radius cylinder contains nothing.
+    A point is inside when it projects onto the axis segment (both angles at p0 and p1 at
+    most 90 degrees) and its distance to the axis is strictly below the radius. A zero-length
+    or zero-radius cylinder contains nothing.
+
+    Args:
+        points: Positions [m], shape (n, 3).
+        p0: One end of the axis [m], shape (3,).
+        p1: The other end [m], shape (3,).
+        radius: Cylinder radius [m], >= 0.
+        device: Warp device the test runs on.
+
+    Returns:
+        Mask, shape (n,) bool.
+
+    Raises:
+        InputError: A non-finite end point or a bad radius.
     """
-
     tool = Tool(p0, p1, radius)
     pts = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     if len(pts) == 0:

@@ -12,6 +12,11 @@ __all__ = ["Tool", "ToolPath"]
 
 
 def _vec3(value, name: str) -> np.ndarray:
+    """``value`` as three finite floats [m], shape (3,).
+
+    Raises:
+        InputError: Another shape, or a non-finite value.
+    """
     arr = np.asarray(value, dtype=np.float64)
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise InputError(f"{name} must be three finite numbers [m], got {value!r}")
@@ -20,7 +25,16 @@ def _vec3(value, name: str) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Tool:
-    """A cylindrical tool pose: axis from p0 (the tip) to p1 [m], radius [m] >= 0."""
+    """A cylindrical tool pose.
+
+    Attributes:
+        p0: The tip [m], shape (3,).
+        p1: The other end of the axis [m], shape (3,).
+        radius: Cylinder radius [m], >= 0.
+
+    Raises:
+        InputError: A non-finite end point or a negative or non-finite radius.
+    """
 
     p0: np.ndarray
     p1: np.ndarray
@@ -41,8 +55,17 @@ class Tool:
 
 
 class ToolPath:
-    """Keyframed tool motion: times (k,) [s] increasing, tips p0 (k, 3) and ends p1 (k, 3) [m],
-    linear in between and held constant outside the keyframe range."""
+    """Keyframed tool motion, linear in between and held constant outside the keyframe range.
+
+    Args:
+        times: Keyframe times [s], shape (k,), strictly increasing.
+        p0: Tips [m], shape (k, 3).
+        p1: Other axis ends [m], shape (k, 3).
+        radius: Cylinder radius [m], >= 0.
+
+    Raises:
+        InputError: Mismatched or empty keyframes, times not increasing, or non-finite values.
+    """
 
     def __init__(self, times, p0, p1, radius: float):
         self.times = np.asarray(times, dtype=np.float64).ravel()
@@ -58,7 +81,14 @@ class ToolPath:
         self.radius = Tool(self.p0[0], self.p1[0], radius).radius
 
     def endpoints_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(p0, p1) [m] at time t [s]."""
+        """The tool's end points at a time.
+
+        Args:
+            t: Time [s].
+
+        Returns:
+            p0 and p1 [m], each shape (3,).
+        """
         # linear between keyframes, held outside (np.interp's rule), one lookup for all six
         times = self.times
         if t <= times[0] or len(times) == 1:
@@ -72,7 +102,7 @@ class ToolPath:
         return p0, p1
 
     def pose_at(self, t: float) -> Tool:
-        """The Tool at time t [s] (keyframes were validated once, so no checks here)."""
+        """The Tool at time ``t`` [s] (keyframes were validated once, so no checks here)."""
         p0, p1 = self.endpoints_at(t)
         tool = object.__new__(Tool)
         object.__setattr__(tool, "p0", p0)

@@ -18,6 +18,7 @@ __all__ = ["DeviceModel"]
 
 
 def _node_flags(model, slots) -> np.ndarray:
+    """NODE_ACTIVE | NODE_PINNED bits of node slots, shape (k,) int32."""
     table = model.node_table
     flags = np.where(table.alive_buffer()[slots], NODE_ACTIVE, 0).astype(np.int32)
     flags[table.buffer("pinned")[slots]] |= NODE_PINNED
@@ -42,6 +43,7 @@ def _columns(model):
 
 
 def _to_warp(values: np.ndarray, dtype, device) -> wp.array:
+    """Host values as a flat Warp array of ``dtype`` (vec3, float32 or int32) on ``device``."""
     if dtype is wp.vec3:
         return wp.array(np.asarray(values, np.float32).reshape(-1, 3), dtype=wp.vec3, device=device)
     np_type = np.float32 if dtype is wp.float32 else np.int32
@@ -51,10 +53,26 @@ def _to_warp(values: np.ndarray, dtype, device) -> wp.array:
 class DeviceModel:
     """Device arrays of a model (counts follow Newton's ``*_count`` naming; slots, dead included).
 
-    rest_positions (node capacity,) vec3 [m]; node_mass float32 [kg]; node_damping float32
-    [N s/m]; node_flags int32 (NODE_ACTIVE | NODE_PINNED); spring_indices (2 * spring capacity,)
-    int32, -1 for dead slots; spring_rest_length [m] and spring_stiffness [N/m] float32;
-    link_indices (2 * link capacity,) int32; link_force [N] and link_smoothing [m] float32.
+    Args:
+        model: The TissueModel mirrored.
+        device: Warp device, e.g. ``"cpu"`` or ``"cuda:0"``.
+
+    Attributes:
+        rest_positions: Rest positions [m], shape (node capacity,) vec3.
+        node_mass: Lumped masses [kg], shape (node capacity,) float32.
+        node_damping: Damping D [N s/m], shape (node capacity,) float32.
+        node_flags: NODE_ACTIVE | NODE_PINNED bits, shape (node capacity,) int32.
+        spring_indices: Spring end nodes, flat, shape (2 * spring capacity,) int32; -1 for dead
+            slots.
+        spring_rest_length: Rest lengths [m], shape (spring capacity,) float32.
+        spring_stiffness: Stiffness [N/m], shape (spring capacity,) float32.
+        link_indices: Residual-link end nodes, flat, shape (2 * link capacity,) int32; -1 for
+            dead slots.
+        link_force: Link force sigma_r A [N], shape (link capacity,) float32.
+        link_smoothing: Link smoothing length [m], shape (link capacity,) float32.
+        node_count: Used node slots.
+        spring_count: Used spring slots.
+        link_count: Used link slots.
     """
 
     def __init__(self, model, device: str = "cpu"):
@@ -63,6 +81,7 @@ class DeviceModel:
         self._allocate()
 
     def _allocate(self) -> None:
+        """Upload every column at its table's capacity and forget the tables' changes."""
         model = self.model
         for name, table, values, dtype in _columns(model):
             table.take_dirty()
@@ -70,14 +89,18 @@ class DeviceModel:
         self._counts()
 
     def _counts(self) -> None:
+        """Read the used slot counts from the tables."""
         self.node_count = self.model.node_table.count
         self.spring_count = self.model.spring_table.count
         self.link_count = self.model.link_table.count
 
     def sync(self) -> bool:
-        """Copy the model's changed slots to the device. Returns True if arrays were
-        reallocated (a table outgrew its capacity): solvers holding them must rebind."""
+        """Copy the model's changed slots to the device.
 
+        Returns:
+            True if arrays were reallocated (a table outgrew its capacity): solvers holding
+            them must rebind.
+        """
         model = self.model
         tables = {id(t): t for _, t, _, _ in _columns(model)}
         changes = {key: t.take_dirty() for key, t in tables.items()}

@@ -14,6 +14,7 @@ import numpy as np
 import trimesh
 
 from ..errors import InputError
+from ..mesh.geometry import boundary_nodes, edges_of, triangle_areas
 from ..mesh.patch import skin_patch_mesh
 from .material import Material
 from .slots import SlotTable
@@ -24,39 +25,17 @@ DEFAULT_LINK_SMOOTHING = 0.25
 """Residual-link smoothing length as a fraction of the deleted spring's rest length."""
 
 
-def triangle_edges(triangles: np.ndarray) -> np.ndarray:
-    """Unique undirected edges (e, 2), each sorted (i < j), of triangles (t, 3)."""
-    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    return np.unique(edges, axis=0) if len(edges) else np.zeros((0, 2), np.int64)
-
-
-def _areas(points, triangles) -> np.ndarray:
-    pts = np.asarray(points, dtype=np.float64)
-    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    if len(tri) == 0:
-        return np.zeros(0)
-    a = pts[tri]
-    return 0.5 * np.linalg.norm(np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]), axis=1)
+triangle_edges = edges_of
+"""Unique undirected edges (e, 2), each sorted (i < j), of triangles (t, 3) (``mesh.geometry.edges_of``)."""
 
 
 def lumped_masses(points: np.ndarray, triangles: np.ndarray, areal_density: float) -> np.ndarray:
     """Lumped node masses (n,) [kg]: areal_density [kg/m^2] x one third of the adjacent areas."""
     tri = np.asarray(triangles, dtype=np.int64)
-    area = _areas(points, tri)
+    area = triangle_areas(points, tri)
     masses = np.zeros(len(points))
     np.add.at(masses, tri.ravel(), np.repeat(area * areal_density / 3.0, 3))
     return masses
-
-
-def boundary_nodes(node_count: int, triangles: np.ndarray) -> np.ndarray:
-    """Mask (n,) of nodes on a boundary edge (an edge used by exactly one triangle)."""
-    tri = np.asarray(triangles, dtype=np.int64)
-    edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    uniq, counts = np.unique(edges, axis=0, return_counts=True)
-    mask = np.zeros(node_count, dtype=bool)
-    mask[uniq[counts == 1].ravel()] = True
-    return mask
 
 
 def _per_item(value, count: int, name: str, lower_open: bool = False) -> np.ndarray:
@@ -111,7 +90,7 @@ class TissueModel:
             "pairs": springs, "rest_length": rest_lengths, "stiffness": stiffness,
             "spring_class": np.zeros(len(springs), np.int8)}, key="pairs")
         self.triangle_table = SlotTable({
-            "corners": triangles, "area": _areas(points, triangles)}, key="corners")
+            "corners": triangles, "area": triangle_areas(points, triangles)}, key="corners")
         self.link_table = SlotTable({
             "pairs": np.zeros((0, 2), np.int64), "force": np.zeros(0),
             "smoothing": np.zeros(0)}, key="pairs")
@@ -257,6 +236,9 @@ class TissueModel:
         tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
         if len(tri) == 0:
             raise InputError("a tissue mesh needs at least one triangle")
+        repeated = np.flatnonzero((tri == tri[:, [1, 2, 0]]).any(axis=1))
+        if repeated.size:
+            raise InputError(f"triangle {int(repeated[0])} {tuple(tri[repeated[0]].tolist())} repeats a node")
         if uniform_mass is not None:
             masses = float(uniform_mass)
         else:
@@ -272,6 +254,12 @@ class TissueModel:
             pinned = cls._pinned_by_rule(pts, tri, pinned)
         return cls.from_arrays(pts, triangle_edges(tri), masses, pinned=pinned,
                                triangles=tri, material=material)
+
+    @classmethod
+    def from_surface(cls, surface, *, material: Material | None = None, pinned="border") -> TissueModel:
+        """The tissue on a generated surface mesh (``warp_cut.mesh.surfaces``): springs = its
+        edges, lumped masses, its border pinned unless ``pinned`` says otherwise."""
+        return cls.from_triangles(surface.points, surface.triangles, material=material, pinned=pinned)
 
     @classmethod
     def from_patch(cls, size=(0.10, 0.06), spacing: float = 2.0e-3, *,

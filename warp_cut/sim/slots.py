@@ -16,8 +16,18 @@ __all__ = ["SlotTable"]
 class SlotTable:
     """A table of named numpy columns.
 
-    key: the name of the column whose value -1 marks a dead slot (an index column), or None
-        for tables where liveness is kept only in ``alive``.
+    Args:
+        columns: Name -> initial values, each shape (count, ...) (equal lengths).
+        key: The name of the column whose value -1 marks a dead slot (an index column), or
+            None for tables where liveness is kept only in ``alive``.
+
+    Attributes:
+        count: Used slots, dead ones included.
+        key: The key column's name, or None.
+        grown: True once the capacity changed since the last ``take_dirty`` (mirrors reallocate).
+
+    Raises:
+        ValueError: The columns differ in length.
     """
 
     def __init__(self, columns: dict[str, np.ndarray], key: str | None = None):
@@ -42,42 +52,54 @@ class SlotTable:
             self._alive[: self.count] = np.all(keys.reshape(self.count, -1) >= 0, axis=1)
         self._dirty: list[np.ndarray] = []
         self.grown = False
-        """True once the capacity changed since the last ``take_dirty`` (mirrors reallocate)."""
 
     @property
     def capacity(self) -> int:
+        """Allocated slots (used and spare)."""
         return len(self._alive)
 
     @property
     def alive(self) -> np.ndarray:
-        """(count,) bool view: which slots hold a live row."""
+        """Which slots hold a live row: a view, shape (count,) bool."""
         return self._alive[: self.count]
 
     def alive_buffer(self) -> np.ndarray:
-        """(capacity,) bool view of liveness including unused spare slots (False)."""
+        """Liveness including unused spare slots (False): a view, shape (capacity,) bool."""
         return self._alive
 
     @property
     def live_count(self) -> int:
+        """Live rows."""
         return int(self.alive.sum())
 
     def column(self, name: str) -> np.ndarray:
-        """(count, ...) view of a column over all used slots, dead ones included."""
+        """A column over all used slots, dead ones included: a view, shape (count, ...)."""
         return self._cols[name][: self.count]
 
     def buffer(self, name: str) -> np.ndarray:
-        """(capacity, ...) view of a column including unused spare slots."""
+        """A column including unused spare slots: a view, shape (capacity, ...)."""
         return self._cols[name]
 
     def live(self, name: str) -> np.ndarray:
-        """Copy of a column over live slots only, (live_count, ...)."""
+        """A column over live slots only: a copy, shape (live_count, ...)."""
         return self.column(name)[self.alive]
 
     def live_slots(self) -> np.ndarray:
+        """Slot indices of the live rows, shape (live_count,) int64, increasing."""
         return np.flatnonzero(self.alive)
 
     def append(self, **values) -> np.ndarray:
-        """Append rows (every column must be given); returns their slot indices."""
+        """Append rows, growing the capacity if needed.
+
+        Args:
+            **values: Every column, each shape (k, ...) (equal lengths).
+
+        Returns:
+            The new rows' slot indices, shape (k,).
+
+        Raises:
+            ValueError: A column is missing or the lengths differ.
+        """
         if set(values) != set(self._cols):
             raise ValueError(f"append needs columns {sorted(self._cols)}, got {sorted(values)}")
         n = {len(np.asarray(v)) for v in values.values()}
@@ -96,7 +118,11 @@ class SlotTable:
         return slots
 
     def kill(self, slots) -> None:
-        """Mark slots dead (their key column becomes -1)."""
+        """Mark slots dead (their key column becomes -1).
+
+        Args:
+            slots: Slot indices, shape (k,).
+        """
         slots = np.asarray(slots, dtype=np.int64)
         if not len(slots):
             return
@@ -106,19 +132,30 @@ class SlotTable:
         self._dirty.append(slots)
 
     def set(self, name: str, slots, values) -> None:
-        """Overwrite a column at some slots."""
+        """Overwrite a column at some slots.
+
+        Args:
+            name: The column.
+            slots: Slot indices, shape (k,).
+            values: New values, shape (k, ...) or broadcastable to it.
+        """
         slots = np.asarray(slots, dtype=np.int64)
         self._cols[name][slots] = values
         self._dirty.append(slots)
 
     def take_dirty(self) -> tuple[np.ndarray, bool]:
-        """(unique changed slots since the last call, whether the capacity grew); resets both."""
+        """What changed since the last call; resets it.
+
+        Returns:
+            The unique changed slots, shape (k,) int64 sorted, and whether the capacity grew.
+        """
         dirty = np.unique(np.concatenate(self._dirty)) if self._dirty else np.zeros(0, np.int64)
         grown = self.grown
         self._dirty, self.grown = [], False
         return dirty, grown
 
     def _grow(self, needed: int) -> None:
+        """Reallocate every column to at least ``needed`` slots (at least doubling)."""
         capacity = max(needed, 2 * self.capacity)
         for name, buf in self._cols.items():
             new = np.zeros((capacity,) + buf.shape[1:], dtype=buf.dtype)

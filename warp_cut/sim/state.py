@@ -11,8 +11,15 @@ __all__ = ["State"]
 class State:
     """Node state on the device.
 
-    positions: (node_count,) vec3 [m]; velocities: (node_count,) vec3 [m/s];
-    forces: (node_count,) vec3 [N], the accumulator the force kernels add into.
+    Args:
+        positions: Node positions [m], shape (node_count, 3).
+        velocities: Node velocities [m/s], shape (node_count, 3) (default zero).
+        device: Warp device.
+
+    Attributes:
+        positions: Node positions [m], shape (node_count,) vec3.
+        velocities: Node velocities [m/s], shape (node_count,) vec3.
+        forces: Force accumulator the force kernels add into [N], shape (node_count,) vec3.
     """
 
     def __init__(self, positions: np.ndarray, velocities: np.ndarray | None = None,
@@ -25,4 +32,5 @@ class State:
 
     @property
     def node_count(self) -> int:
+        """Node slots the state holds."""
         return self.positions.shape[0]

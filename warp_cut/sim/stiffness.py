@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mesh.geometry import edge_keys, half_edges, triangle_areas
+
 __all__ = ["STIFFNESS_MODELS", "material_stiffness", "van_gelder_stiffness"]
 
 STIFFNESS_MODELS = ("constant", "material")
@@ -33,31 +35,33 @@ def van_gelder_stiffness(youngs_modulus: float, thickness: float, area_sum, leng
 
 def material_stiffness(points, triangles, springs, youngs_modulus: float, thickness: float,
                        fallback: float | np.ndarray = 0.0) -> np.ndarray:
-    """Per-spring stiffness (s,) [N/m] by van Gelder's formula (see the module doc).
+    """Per-spring stiffness by van Gelder's formula (see the module doc).
 
-    points (n, 3) [m]; triangles (t, 3); springs (s, 2) node pairs; youngs_modulus E [Pa];
-    thickness t [m]; fallback: stiffness [N/m] of springs with no adjacent triangle.
+    Args:
+        points: Node positions [m], shape (n, 3).
+        triangles: Node indices, shape (t, 3).
+        springs: Node pairs, shape (s, 2).
+        youngs_modulus: E [Pa].
+        thickness: t [m].
+        fallback: Stiffness [N/m] of springs with no adjacent triangle, scalar or shape (s,).
+
+    Returns:
+        Spring stiffness [N/m], shape (s,) float64.
     """
     pts = np.asarray(points, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     spr = np.sort(np.asarray(springs, dtype=np.int64).reshape(-1, 2), axis=1)
     if len(spr) == 0:
         return np.zeros(0)
-    corners = pts[tri]
-    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
-                                         corners[:, 2] - corners[:, 0]), axis=1)
-    tri_edges = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    n = len(pts)
     # sum the areas of the triangles at each edge, matched to springs through a scalar key
-    def key(e):
-        return e[:, 0] * n + e[:, 1]
-    order = np.argsort(key(spr))
-    spring_keys = key(spr)[order]
-    pos = np.searchsorted(spring_keys, key(tri_edges))
-    pos = np.minimum(pos, len(spr) - 1)
-    found = spring_keys[pos] == key(tri_edges)
+    n = len(pts)
+    tri_edge_keys = edge_keys(np.sort(half_edges(tri), axis=1), n)  # three per triangle, in order
+    order = np.argsort(edge_keys(spr, n))
+    spring_keys = edge_keys(spr, n)[order]
+    pos = np.minimum(np.searchsorted(spring_keys, tri_edge_keys), len(spr) - 1)
+    found = spring_keys[pos] == tri_edge_keys
     area_sum = np.zeros(len(spr))
-    np.add.at(area_sum, order[pos[found]], np.repeat(area, 3)[found])
+    np.add.at(area_sum, order[pos[found]], np.repeat(triangle_areas(pts, tri), 3)[found])
     length2 = np.sum((pts[spr[:, 1]] - pts[spr[:, 0]]) ** 2, axis=1)
     k = np.broadcast_to(np.asarray(fallback, dtype=np.float64), (len(spr),)).copy()
     has = (area_sum > 0) & (length2 > 0)

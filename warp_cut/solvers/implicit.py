@@ -55,13 +55,6 @@ class ImplicitEulerSolver(SolverBase):
         self._vectors = {name: wp.zeros(n, dtype=wp.vec3, device=device)
                          for name in ("ap", "diagonal", "inv_diagonal", "x", "r", "z", "p")}
 
-    @property
-    def cg_residual(self) -> float:
-        """sqrt(r.z / r0.z0) after the last substep (reads the device)."""
-        rz = self.cg.numpy()[:, 0]
-        last = rz[rz > 0]
-        return 0.0 if rz[0] <= 0 or len(last) == 0 else float(math.sqrt(last[-1] / rz[0]))
-
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
         m = self.model
         n = m.node_count

@@ -25,7 +25,18 @@ REPLAY_MODES = ("auto", "graph", "commands", "launch")
 
 
 class LaunchSequence:
-    """Kernel launches on one device, added with ``add`` then replayed with ``launch``."""
+    """Kernel launches on one device, added with ``add`` then replayed with ``launch``.
+
+    Args:
+        device: Warp device the launches run on.
+        mode: One of REPLAY_MODES.
+
+    Attributes:
+        graph: The captured graph after ``finalize`` (None if not captured).
+
+    Raises:
+        ValueError: An unknown mode.
+    """
 
     def __init__(self, device, mode: str = "auto"):
         if mode not in REPLAY_MODES:
@@ -37,7 +48,13 @@ class LaunchSequence:
         self.graph = None
 
     def add(self, kernel, count: int, inputs: list) -> None:
-        """Append a launch of ``kernel`` over ``count`` threads (skipped when count is 0)."""
+        """Append a launch.
+
+        Args:
+            kernel: A Warp kernel.
+            count: Threads (skipped when 0).
+            inputs: The kernel's arguments, in order.
+        """
         if count <= 0:
             return
         if self.mode == "launch":
@@ -47,7 +64,14 @@ class LaunchSequence:
                                             device=self.device, record_cmd=True))
 
     def finalize(self) -> LaunchSequence:
-        """Capture the recorded commands into a graph when the mode asks for it."""
+        """Capture the recorded commands into a graph when the mode asks for it.
+
+        Returns:
+            self.
+
+        Raises:
+            Exception: Whatever Warp raised, if mode is ``"graph"`` and capture failed.
+        """
         if self.mode in ("auto", "graph") and self._commands:
             try:
                 with wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
@@ -66,6 +90,7 @@ class LaunchSequence:
         return "graph" if self.graph is not None else ("launch" if self.mode == "launch" else "commands")
 
     def launch(self) -> None:
+        """Run the sequence once (as a graph, prepared commands or plain launches)."""
         if self.graph is not None:
             wp.capture_launch(self.graph)
         elif self.mode == "launch":

@@ -1,0 +1,227 @@
+"""The cut fuzz's report: a markdown summary and a CSV with one row per stroke."""
+
+from __future__ import annotations
+
+import csv
+import re
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from warp_cut.verify.validity import FOLD_CHECKS
+
+WOUND_WRONG = "tri_flipped_new"
+"""The check of triangles wound against the surface when the cut made them."""
+
+ROOT = str(Path(__file__).resolve().parent.parent) + "/"
+"""The repository root, stripped from file names in tracebacks."""
+
+COVERED = 0.95
+"""A stroke counts as covered when at least this fraction of its trace is open."""
+
+
+def _ran(rows):
+    return [r for r in rows if r["stroke"] >= 0 and not r.get("skipped")]
+
+
+def _fmt(v, digits=3) -> str:
+    if isinstance(v, float):
+        return "-" if not np.isfinite(v) else f"{v:.{digits}g}"
+    return str(v)
+
+
+def _pct(values, q) -> float:
+    v = np.asarray([x for x in values if np.isfinite(x)], dtype=float)
+    return float(np.percentile(v, q)) if len(v) else float("nan")
+
+
+def _message_key(message: str) -> str:
+    """An exception message with numbers masked, to group the same failure."""
+    return re.sub(r"-?\d+(\.\d+)?(e-?\d+)?", "#", message)[:160]
+
+
+def _checks(row) -> list[str]:
+    return list(row.get("_violations", {}))
+
+
+def _stats(rows) -> dict:
+    ran = _ran(rows)
+    latency = [x for r in rows for x in r["_latency"]]
+    cov = [r["coverage"] for r in ran]
+    return {
+        "strokes": len(ran), "events": sum(r["events"] for r in rows),
+        "violating": sum(any(c not in FOLD_CHECKS + (WOUND_WRONG,) for c in _checks(r)) for r in ran),
+        "wound_wrong": sum(WOUND_WRONG in _checks(r) for r in ran),
+        "folded": sum(any(c in FOLD_CHECKS for c in _checks(r)) for r in ran),
+        "exceptions": sum(bool(r["exception"]) for r in rows),
+        "holes": sum(r["unfilled_holes"] > 0 for r in ran if not r["exception"]),
+        "split": sum(r["incisions"] > 1 for r in ran),
+        "none": sum(r["incisions"] == 0 for r in ran),
+        "cov_median": _pct(cov, 50), "cov_min": _pct(cov, 0),
+        "covered": sum(c >= COVERED for c in cov),
+        "slivers": sum(r.get("slivers", 0) > 0 for r in ran),
+        "lat_p50": _pct(latency, 50), "lat_p99": _pct(latency, 99), "lat_max": _pct(latency, 100),
+    }
+
+
+def _totals(rows, wall) -> list[str]:
+    s = _stats(rows)
+    cases = len({r["case"] for r in rows})
+    skipped = sum(bool(r.get("skipped")) for r in rows if r["stroke"] >= 0)
+    return [
+        f"- cases: {cases}, strokes run: {s['strokes']} (skipped: {skipped}), wall time {wall / 60:.1f} min",
+        f"- cut events: **{s['events']}**, each followed by every invariant check",
+        f"- strokes with a mesh invariant violated (check_mesh: indices, duplicates, degenerate "
+        f"triangles, winding, manifold edges, springs = edges, masses; mass balance, links between live "
+        f"nodes, device mirror, step budget, finite state): **{s['violating']}**",
+        f"- strokes in which the cut made a triangle wound against the surface ({WOUND_WRONG}): "
+        f"**{s['wound_wrong']}**",
+        f"- strokes after which triangles were folded over by the motion ({', '.join(FOLD_CHECKS)}; "
+        f"not an edit error, see below): {s['folded']}",
+        f"- exceptions: **{s['exceptions']}**",
+        f"- strokes with a hole still open after the tool left: **{s['holes']}**",
+        f"- strokes split into more than one incision: **{s['split']}**; strokes that made no incision: {s['none']}",
+        f"- coverage: median {_fmt(s['cov_median'])}, min {_fmt(s['cov_min'])}; "
+        f"strokes with coverage >= {COVERED}: {s['covered']} of {s['strokes']}",
+        f"- strokes leaving slivers (< 10 deg) among the triangles they made: {s['slivers']}",
+        f"- host latency per cut event: p50 {_fmt(s['lat_p50'])} ms, p99 **{_fmt(s['lat_p99'])} ms**, "
+        f"max {_fmt(s['lat_max'])} ms",
+    ]
+
+
+def _by_kind(rows) -> list[str]:
+    kinds = sorted({r["kind"] for r in rows})
+    head = ("| kind | strokes | events | invariant violated | wound wrong | folded | exceptions | holes | "
+            "split | no incision | coverage median | coverage min | covered | p99 latency [ms] |")
+    out = [head, "|" + "---|" * 14]
+    for k in kinds:
+        s = _stats([r for r in rows if r["kind"] == k])
+        out.append(f"| {k} | {s['strokes']} | {s['events']} | {s['violating']} | {s['wound_wrong']} | "
+                   f"{s['folded']} | {s['exceptions']} | "
+                   f"{s['holes']} | {s['split']} | {s['none']} | {_fmt(s['cov_median'])} | "
+                   f"{_fmt(s['cov_min'])} | {s['covered']} | {_fmt(s['lat_p99'])} |")
+    return out
+
+
+def _breakdown(rows) -> list[str]:
+    """Coverage, splits and holes by tool radius / spacing, by first vs crossing stroke, by
+    integrator: where the current cut loses the stroke."""
+    ran = _ran(rows)
+    groups = {
+        "tool radius < 0.5 spacing": lambda r: r["radius_mm"] < 0.5 * r["spacing_mm"],
+        "tool radius 0.5-1 spacing": lambda r: 0.5 * r["spacing_mm"] <= r["radius_mm"] < r["spacing_mm"],
+        "tool radius >= 1 spacing": lambda r: r["radius_mm"] >= r["spacing_mm"],
+        "tilt < 45 deg": lambda r: r["tilt_deg"] < 45.0,
+        "tilt >= 45 deg": lambda r: r["tilt_deg"] >= 45.0,
+        "first stroke of a case": lambda r: r["stroke"] == 0,
+        "later stroke (crosses an earlier cut)": lambda r: r["stroke"] > 0,
+    }
+    for name in sorted({r["integrator"] for r in ran}):
+        groups[f"integrator {name}"] = lambda r, name=name: r["integrator"] == name
+    out = ["| strokes | n | coverage median | covered | split | holes | no incision |", "|---|---|---|---|---|---|---|"]
+    for label, test in groups.items():
+        part = [r for r in ran if test(r)]
+        if part:
+            s = _stats(part)
+            out.append(f"| {label} | {s['strokes']} | {_fmt(s['cov_median'])} | {s['covered']} | "
+                       f"{s['split']} | {s['holes']} | {s['none']} |")
+    return out
+
+
+def _violations(rows) -> list[str]:
+    strokes, events, example = Counter(), Counter(), {}
+    for r in _ran(rows):
+        for item in filter(None, (r.get("violations") or "").split(";")):
+            name, count = item.rsplit("x", 1)
+            strokes[name] += 1
+            events[name] += int(count)
+            example.setdefault(name, (r["_violations"].get(name, ""), r["reproducer"]))
+    if not strokes:
+        return ["None."]
+    out = ["Checks named tri_flipped_cut / tri_flipped_tissue count triangles made by an earlier edit / "
+           "of the original mesh that the motion turned over (the tool pushes the nodes inside it "
+           "out radially, lips included, and a mass-spring sheet has no resistance to folding); "
+           "tri_flipped_new counts triangles wound against the surface when the edit made them.", "",
+           "| check | strokes | checks failed | first message | reproducer |", "|---|---|---|---|---|"]
+    for name, n in strokes.most_common():
+        msg, rep = example[name]
+        out.append(f"| {name} | {n} | {events[name]} | {msg[:140]} | `{rep}` |")
+    return out
+
+
+def _exceptions(rows) -> list[str]:
+    groups = defaultdict(list)
+    for r in rows:
+        if r["exception"]:
+            groups[_message_key(r["exception"])].append(r)
+    if not groups:
+        return ["None."]
+    out = []
+    for _key, items in sorted(groups.items(), key=lambda kv: -len(kv[1])):
+        first = items[0]
+        where = first["traceback"].strip().splitlines()
+        frames = [ln.strip().replace(ROOT, "") for ln in where if ln.strip().startswith("File ")][-2:]
+        out.append(f"- **{len(items)}x** `{first['exception'][:200]}`  ")
+        out.append(f"  at {' <- '.join(reversed(frames))}  " if frames else "  ")
+        out.append("  reproducers: " + ", ".join(f"`{r['reproducer']}`" for r in items[:3]))
+    return out
+
+
+def _failures(rows, what, test, limit=8) -> list[str]:
+    bad = [r for r in _ran(rows) if test(r) and not r["exception"]]
+    if not bad:
+        return [f"- {what}: none"]
+    return [f"- {what} ({len(bad)}): " + ", ".join(
+        f"`{r['reproducer']}` ({r['kind']}, {r['path']})" for r in bad[:limit])]
+
+
+def _named(rows) -> list[str]:
+    cols = ["case", "events", "incisions", "unfilled_holes", "coverage", "curve_coverage",
+            "lip_dev_max_mm", "slivers", "violations", "exception"]
+    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for r in rows:
+        out.append("| " + " | ".join(_fmt(r.get(c, "")) if c != "exception" else (r[c][:120] or "-")
+                                     for c in cols) + " |")
+    return out
+
+
+def write_csv(rows, path: Path) -> None:
+    keys = [k for k in rows[0] if not k.startswith("_")] if rows else []
+    for r in rows:
+        keys += [k for k in r if k not in keys and not k.startswith("_")]
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (r.get(k, "").replace("\n", " | ") if isinstance(r.get(k), str) else r.get(k, ""))
+                        for k in keys})
+
+
+def write_report(rows, out: Path, *, title: str, command: str, wall: float, named: bool) -> None:
+    """Write ``out`` (markdown) and ``out`` with suffix .csv."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    lines = [f"# {title}", "", f"Command: `{command}`", "",
+             "Coverage: fraction of the stroke's ideal in-skin trace at which wound-border edges pass "
+             "within 0.5 spacing + 0.25 tool radius on both sides (parameter plane, rest positions; "
+             "see warp_cut/verify/stroke_quality.py). Holes: `cutter.unfilled_holes` after the tool left. "
+             "Split: the stroke started more than one incision. Latency: host time of each cut event "
+             "(`sim.cutter.latency_ms`, all stages) on the machine that ran the report; other load on it "
+             "inflates the tail.", "", "## Totals", ""]
+    lines += _totals(rows, wall)
+    if named:
+        lines += ["", "## Cases", ""] + [f"- **{r['case']}**: {r.get('about', '')}" for r in rows]
+        lines += ["", ""] + _named(rows)
+    else:
+        lines += ["", "## By mesh kind", ""] + _by_kind(rows)
+        lines += ["", "## By stroke", ""] + _breakdown(rows)
+    lines += ["", "## Checks that failed", ""] + _violations(rows)
+    lines += ["", "## Exceptions (grouped by message, numbers masked)", ""] + _exceptions(rows)
+    lines += ["", "## Other failing strokes (reproducers)", ""]
+    lines += _failures(rows, "holes open after the stroke", lambda r: r["unfilled_holes"] > 0)
+    lines += _failures(rows, "split into several incisions", lambda r: r["incisions"] > 1)
+    lines += _failures(rows, "no incision", lambda r: r["incisions"] == 0)
+    lines += _failures(rows, f"coverage below {COVERED}", lambda r: r["coverage"] < COVERED)
+    out.write_text("\n".join(lines) + "\n")
+    write_csv(rows, out.with_suffix(".csv"))
