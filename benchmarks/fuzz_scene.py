@@ -56,7 +56,7 @@ def run_scene_case(name: str, overrides: list[str], reproducer: str, scene_name=
     """One row: the bundled scene with ``overrides``, checked after every edit."""
     scene = load_scene(scene_name, overrides)
     model, sim, path, _ = prepare_simulation(scene)
-    surface = on_plane(model.points, model.triangles, scene.tissue["spacing"])
+    surface = on_plane(model.points, model.triangles, scene.tissue.spacing)
     stroke = KeyframeStroke(path)
     result = run_stroke(sim, stroke, surface, border_keys=original_border(model),
                         settle=scene.duration - stroke.duration)
@@ -64,7 +64,7 @@ def run_scene_case(name: str, overrides: list[str], reproducer: str, scene_name=
     tilt = math.degrees(math.asin(axis[2] / np.linalg.norm(axis)))  # from the patch's plane
     return [{
         "case": name, "stroke": 0, "kind": "scene", "path": "line", "spacing_mm": 1e3 * surface.spacing,
-        "nodes": len(surface.points), "integrator": sim.integrator, "interval_ms": 1e3 * scene.cutting["interval"],
+        "nodes": len(surface.points), "integrator": sim.integrator, "interval_ms": 1e3 * scene.cutting.interval,
         "gravity": True, "length_mm": 1e3 * stroke.length, "tilt_deg": abs(tilt), "radius_mm": 1e3 * stroke.radius,
         "events": result.events, "edits": result.edits, "incisions": result.incisions,
         "unfilled_holes": result.unfilled_holes, "coverage": result.coverage,

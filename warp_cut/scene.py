@@ -18,6 +18,7 @@ import numpy as np
 
 from .cut.cutter import CutSettings
 from .errors import InputError, SceneError
+from .mesh.checks import cuttable_problems
 from .sim.control import ToolPath
 from .sim.material import Material
 from .sim.model import TissueModel, boundary_nodes
@@ -244,6 +245,13 @@ class Scene:
                                                    scale=t.scale)
         except InputError as exc:
             raise SceneError(self.path, "tissue", str(exc)) from exc
+        if t.kind == "mesh" and self.physics.cutting:
+            problems = cuttable_problems(model.points, model.triangles)
+            if problems:
+                raise SceneError(self.path, "tissue.path",
+                                 f"{t.path}: this mesh cannot be cut (physics.cutting = true needs a manifold, "
+                                 f"consistently wound mesh without duplicate or degenerate triangles): "
+                                 + "; ".join(problems))
         if t.uniform_mass is not None:
             model.masses[:] = t.uniform_mass
         self._pin(model)

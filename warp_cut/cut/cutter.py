@@ -34,6 +34,7 @@ from ..errors import InputError
 from ..kernels import cutting as cut_kernels
 from ..kernels import scatter
 from ..kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among, segment_node_hits
+from ..mesh.checks import cuttable_problems
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
 from ..sim.model import TissueModel
@@ -189,12 +190,19 @@ class Cutter:
         self.settings = settings or CutSettings()
         if model.triangle_count == 0:
             raise InputError("cutting needs a tissue with triangles (a surface mesh)")
+        problems = cuttable_problems(model.points, model.triangles)
+        if problems:
+            raise InputError("this mesh cannot be cut (a cut needs a manifold, consistently wound "
+                             "mesh without duplicate or degenerate triangles): " + "; ".join(problems))
         self.editor = TopologyEditor(model)
         self.row_sums = RowSums(model)
         lengths = model.rest_lengths
         self.spacing = self.settings.spacing or float(np.median(lengths))
         self.edge_reach = 1.5 * float(lengths.max()) if len(lengths) else self.spacing
         """How far from the swept capsule a spring may start and still cross it [m]."""
+        self.exit_margin = 0.5 * self.spacing
+        """How far above the skin the tip must be before the incision ends [m]: a skin that
+        moves about a hovering tip does not split one stroke into several incisions."""
         self.incisions: list[Incision] = []
         self.current: Incision | None = None
         self._last_event = -np.inf
@@ -229,10 +237,11 @@ class Cutter:
             self._start_where_the_blade_entered(sim, poses)
             return
         crossing = self.crossing(sim, tool)
-        if crossing is None:
+        if crossing is None or crossing.tip_height > self.exit_margin:
             self.end_incision(sim)  # the tool has left the skin: this incision is complete
-            return
-        self.extend_incision(sim, crossing.point, crossing.normal)
+        elif crossing.inside:
+            self.extend_incision(sim, crossing.point, crossing.normal)
+        # else: the tip is just above the skin (the skin moves, the tool hovers): wait
 
     def crossing(self, sim: CutHost, tool: Tool) -> Crossing | None:
         """Where the tool's axis crosses the skin now (None: the tool is out of the skin)."""
@@ -250,7 +259,7 @@ class Cutter:
         nodes, corners = self._skin_near(sim, tool, x)
         rest = self.model.points[nodes]
         now = self._locate(tool, x[nodes], rest, corners)
-        if now is None:
+        if now is None or not now.inside:
             return
         entry = now
         if self.settings.force_threshold == 0.0:
@@ -266,7 +275,7 @@ class Cutter:
         while lo <= hi:
             mid = (lo + hi) // 2
             hit = self._locate(poses[mid], x, rest, corners)
-            if hit is None:
+            if hit is None or not hit.inside:
                 lo = mid + 1
             else:
                 found, hi = hit, mid - 1

@@ -36,17 +36,25 @@ class Crossing:
     """Where the tool's axis crosses the skin.
 
     Attributes:
-        point: The crossing [m], shape (3,).
+        point: The crossing [m], shape (3,) (where the tip is outside: the point of the skin
+            below the tip).
         normal: Unit outward normal of the skin there, shape (3,).
-        t: Axis parameter of the crossing, 0 at the tip p0 and 1 at p1.
+        t: Axis parameter of the crossing, 0 at the tip p0 and 1 at p1 (nan: the tip is out).
         pierced: True if the axis passes through a live triangle there, False if it passes
             through a hole and the point lies on the fitted surface.
+        tip_height: Height of the tip above the skin [m]: negative while the blade is in it.
     """
 
     point: np.ndarray
     normal: np.ndarray
     t: float
     pierced: bool
+    tip_height: float = -np.inf
+
+    @property
+    def inside(self) -> bool:
+        """True while the blade is in the skin (the tip below its surface)."""
+        return self.tip_height < 0.0
 
 
 def axis_triangle_hits(p0, p1, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -132,6 +140,11 @@ class HeightField:
         roots = _quadratic_roots(q2, q1, q0)
         inside = [t for t in roots if -1e-12 <= t <= 1.0 + 1e-12]
         return min(max(min(inside), 0.0), 1.0) if inside else None
+
+    def tip_height(self, p0) -> float:
+        """Height [m] of point ``p0`` above the surface (along the frame's normal)."""
+        rel = np.asarray(p0, np.float64) - self.centre
+        return float(rel @ self.normal - self.height(rel @ self.e1, rel @ self.e2))
 
     def local(self, point) -> tuple[float, float]:
         rel = np.asarray(point, np.float64) - self.centre
@@ -243,7 +256,8 @@ def locate_crossing(p0, p1, positions: np.ndarray, corners: np.ndarray, *, reach
         rest_positions: The same nodes' rest positions [m], shape (k, 3), or None.
 
     Returns:
-        The crossing, or None when the axis does not cross the skin here.
+        The crossing (with the tip outside: ``inside`` False, the skin below the tip), or None
+        when the axis is beside the tissue or its skin cannot be fitted.
     """
     if len(positions) < 3 or len(corners) == 0:
         return None
@@ -260,11 +274,25 @@ def locate_crossing(p0, p1, positions: np.ndarray, corners: np.ndarray, *, reach
         surface = _fit_around(positions, keep, guess, outward, fit_radius, rest_positions)
         t = surface.axis_crossing(p0, p1)
         if t is None:
-            return None
+            return _outside(surface, p0, positions, reach)
         guess = p0 + t * (p1 - p0)
     if np.min(np.linalg.norm(positions - guess, axis=1)) > reach:
         return None
-    return Crossing(guess, surface.normal_at(*surface.local(guess)), t, bool(hit.any()))
+    return Crossing(guess, surface.normal_at(*surface.local(guess)), t, bool(hit.any()),
+                    surface.tip_height(p0))
+
+
+def _outside(surface: HeightField, p0: np.ndarray, positions: np.ndarray, reach: float) -> Crossing | None:
+    """The skin below a tip that is outside it (None if that is beside the tissue, or the axis
+    runs below the skin without the tip being inside)."""
+    height = surface.tip_height(p0)
+    if height < 0.0:
+        return None
+    x, y = surface.local(p0)
+    foot = surface.centre + x * surface.e1 + y * surface.e2 + surface.height(x, y) * surface.normal
+    if np.min(np.linalg.norm(positions - foot, axis=1)) > reach:
+        return None
+    return Crossing(foot, surface.normal_at(x, y), float("nan"), False, height)
 
 
 def _away_from_axis(positions: np.ndarray, p0, p1, exclude: float) -> np.ndarray:

@@ -45,6 +45,8 @@ from .geometry import (
 )
 
 __all__ = [
+    "CUT_CHECKS",
+    "cuttable_problems",
     "CHECKS",
     "MeshInvalid",
     "MeshReport",
@@ -571,3 +573,31 @@ def check_mesh(points, triangles, springs, *, active=None, masses=None, extra_sp
         degenerate_count=int(geo.degenerate.sum()), flipped_count=int(geo.flipped.sum()),
         min_area=_nanmin(geo.areas), min_spring_length=_nanmin(lengths), total_mass=total_mass,
     )
+
+
+CUT_CHECKS = ("tri_repeated_vertex", "tri_duplicate", "tri_degenerate", "edge_nonmanifold",
+              "winding_inconsistent")
+"""The invariants a mesh must meet before it can be cut: the cut walks hole borders along
+edges (two triangles an edge, one winding) and keeps triangles oriented."""
+
+
+def cuttable_problems(points, triangles, *, relative_min_area: float = 1e-6) -> list[str]:
+    """Why a triangle mesh cannot be cut ([] if it can): non-manifold edges, inconsistent
+    winding, duplicate faces, triangles with a repeated vertex or (nearly) no area.
+
+    Args:
+        points: Node positions [m], shape (n, 3).
+        triangles: Node indices, shape (t, 3).
+        relative_min_area: A triangle smaller than this times the squared median edge length
+            is degenerate.
+
+    Returns:
+        One message per failed check (see ``CUT_CHECKS``), naming the first offending
+        triangles or edges.
+    """
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    pts = np.asarray(points, dtype=np.float64)
+    lengths = np.linalg.norm(pts[tri[:, [1, 2, 0]]] - pts[tri], axis=2) if len(tri) else np.zeros(0)
+    scale = float(np.median(lengths)) if lengths.size else 0.0
+    report = check_mesh(pts, tri, np.zeros((0, 2), np.int64), min_area=relative_min_area * scale ** 2)
+    return [p for p in report.problems if p.split(":", 1)[0] in CUT_CHECKS]
