@@ -2,6 +2,8 @@
 
 import warp as wp
 
+from .flags import is_active
+
 wp.set_module_options({"enable_backward": False})
 
 
@@ -17,7 +19,7 @@ def find_runaway_nodes(
     """first_bad (1,): lowest index of an active node whose state is non-finite or has
     moved farther than max_displacement [m] from its rest position (unchanged if none)."""
     i = wp.tid()
-    if (node_flags[i] & 1) == 0:
+    if not is_active(node_flags[i]):
         return
     x = positions[i]
     v = velocities[i]
@@ -41,7 +43,7 @@ def kinetic_energy(
 ):
     """energy (1,) [J] accumulates 0.5 m |v|^2 over active nodes."""
     i = wp.tid()
-    if (node_flags[i] & 1) == 0:
+    if not is_active(node_flags[i]):
         return
     v = velocities[i]
     wp.atomic_add(energy, 0, 0.5 * node_mass[i] * wp.dot(v, v))

@@ -25,6 +25,7 @@ block diagonals' diagonal).
 
 import warp as wp
 
+from .flags import is_free
 from .springs import SPRING_MIN_LENGTH
 
 wp.set_module_options({"enable_backward": False})
@@ -186,7 +187,7 @@ def cg_start(
     while i < end:
         flags = node_flags[i]
         zero = wp.vec3(0.0)
-        if (flags & 1) == 0 or (flags & 2) != 0:
+        if not is_free(flags):
             x[i] = zero
             r[i] = zero
             z[i] = zero
@@ -234,7 +235,7 @@ def cg_curvature(
     end = wp.min(i + chunk, count)
     while i < end:
         flags = node_flags[i]
-        if (flags & 1) == 0 or (flags & 2) != 0:
+        if not is_free(flags):
             ap[i] = wp.vec3(0.0)
         else:
             pi = p[i]
@@ -317,7 +318,7 @@ def implicit_advance(
     while i < end:
         flags = node_flags[i]
         x = positions_in[i]
-        if (flags & 1) == 0 or (flags & 2) != 0:
+        if not is_free(flags):
             positions_out[i] = x
             velocities_out[i] = wp.vec3(0.0)
         else:

@@ -15,6 +15,7 @@ them, as separately compiled variants (``variants.specialised``).
 import warp as wp
 
 from .collision import push_out_near_tool
+from .flags import is_free
 from .variants import specialised, variant_family
 
 wp.set_module_options({"enable_backward": False})
@@ -47,7 +48,7 @@ def _make(gravity: bool, collision: bool):
             flags = node_flags[i]
             m = node_mass[i]
             damping = node_damping[i]
-            if (flags & 1) == 0 or (flags & 2) != 0:
+            if not is_free(flags):
                 positions_out[i] = x
                 velocities_out[i] = wp.vec3(0.0)
             else:

@@ -23,6 +23,7 @@ residual links are explicit forces (their stiffness F / eps bounds the step, see
 import warp as wp
 
 from .collision import push_out_near_tool
+from .flags import is_free
 from .springs import SPRING_MIN_LENGTH
 from .variants import specialised, variant_family
 
@@ -55,7 +56,7 @@ def spring_valence(
 
 @wp.func
 def inverse_mass(flags: int, mass: float):
-    if (flags & 1) == 0 or (flags & 2) != 0:
+    if not is_free(flags):
         return 0.0
     return 1.0 / mass
 
@@ -116,7 +117,7 @@ def _make_predict(gravity: bool):
         while i < end:
             x = positions_in[i]
             flags = node_flags[i]
-            if (flags & 1) == 0 or (flags & 2) != 0:
+            if not is_free(flags):
                 positions_out[i] = x
             else:
                 m = node_mass[i]
@@ -154,7 +155,7 @@ def _make_finish(collision: bool):
         while i < end:
             flags = node_flags[i]
             m = node_mass[i]
-            free = (flags & 1) != 0 and (flags & 2) == 0
+            free = is_free(flags)
             if free:
                 positions_out[i] = positions_out[i] + delta[i]
             if wp.static(collision):
