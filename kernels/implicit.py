@@ -25,6 +25,7 @@ block diagonals' diagonal).
 
 import warp as wp
 
+from .diagnostics import report_runaway
 from .flags import is_free
 from .springs import SPRING_MIN_LENGTH
 
@@ -311,8 +312,13 @@ def implicit_advance(
     count: int,
     positions_out: wp.array(dtype=wp.vec3),
     velocities_out: wp.array(dtype=wp.vec3),
+    rest_positions: wp.array(dtype=wp.vec3),
+    max_displacement: float,
+    first_bad: wp.array(dtype=wp.int32),
 ):
-    """x' = x + h v' (free nodes); pinned and inactive nodes stay, with zero velocity."""
+    """x' = x + h v' (free nodes); pinned and inactive nodes stay, with zero velocity.
+    The new state is checked (``diagnostics.report_runaway``: rest_positions [m],
+    max_displacement [m], first_bad (1,) int32 lowered to the first bad node)."""
     i = wp.tid() * chunk
     end = wp.min(i + chunk, count)
     while i < end:
@@ -325,6 +331,8 @@ def implicit_advance(
             v = velocity_new[i]
             positions_out[i] = x + h * v
             velocities_out[i] = v
+        report_runaway(i, flags, positions_out[i], velocities_out[i], rest_positions,
+                       max_displacement, first_bad)
         i += 1
 
 
