@@ -15,14 +15,14 @@ wp.set_module_options({"enable_backward": False})
 NO_BAD_NODE = wp.constant(2147483647)
 """Value of a ``first_bad`` (1,) int32 that holds no node (the largest int32)."""
 
+FLOAT32_MAX = 3.4028234663852886e38
+"""The largest finite float32."""
 
-@wp.func
-def is_runaway(x: wp.vec3, v: wp.vec3, rest: wp.vec3, max_displacement: float):
-    """True when position x [m] or velocity v [m/s] is not finite, or x is farther than
-    max_displacement [m] from the rest position (inf: finiteness alone)."""
-    if not (wp.isfinite(x) and wp.isfinite(v)):
-        return True
-    return wp.length(x - rest) > max_displacement
+
+def displacement_limit_sq(max_displacement: float) -> float:
+    """The ``max_displacement_sq`` [m^2] the guard compares with: max_displacement^2, capped
+    at the largest float32 so that an infinite position still fails the test."""
+    return min(float(max_displacement) ** 2, FLOAT32_MAX)
 
 
 @wp.func
@@ -30,15 +30,19 @@ def report_runaway(
     i: int,
     flags: wp.int32,
     x: wp.vec3,
-    v: wp.vec3,
     rest_positions: wp.array(dtype=wp.vec3),
-    max_displacement: float,
+    max_displacement_sq: float,
     first_bad: wp.array(dtype=wp.int32),
 ):
-    """Lower first_bad[0] to i when node i is active and ``is_runaway``: the stability guard
-    each integrator's last node pass runs on the state it writes (no extra launch or pass)."""
-    if is_active(flags):
-        if is_runaway(x, v, rest_positions[i], max_displacement):
+    """Lower first_bad[0] to i when node i is active and its position x [m] is non-finite or
+    farther than sqrt(max_displacement_sq) [m] from rest: one comparison, as NaN and inf
+    fail ``<=``. The stability guard each integrator's last node pass runs on the state it
+    writes (no extra launch or pass). The position alone is enough there: each integrator
+    derives it from the new velocity (x' = x + h v') or the velocity from two finite
+    positions, so a non-finite velocity makes the position non-finite in the same pass."""
+    d = x - rest_positions[i]
+    if not (wp.dot(d, d) <= max_displacement_sq):
+        if is_active(flags):
             wp.atomic_min(first_bad, 0, i)
 
 
@@ -48,14 +52,17 @@ def find_runaway_nodes(
     velocities: wp.array(dtype=wp.vec3),
     rest_positions: wp.array(dtype=wp.vec3),
     node_flags: wp.array(dtype=wp.int32),
-    max_displacement: float,
+    max_displacement_sq: float,
     first_bad: wp.array(dtype=wp.int32),
 ):
-    """first_bad (1,): lowest index of an active node whose state is non-finite or has
-    moved farther than max_displacement [m] from its rest position (unchanged if none)."""
+    """first_bad (1,): lowest index of an active node whose position or velocity is
+    non-finite or that has moved farther than sqrt(max_displacement_sq) [m] from its rest
+    position (unchanged if none). Any given state: velocities are tested too."""
     i = wp.tid()
-    report_runaway(i, node_flags[i], positions[i], velocities[i], rest_positions,
-                   max_displacement, first_bad)
+    flags = node_flags[i]
+    report_runaway(i, flags, positions[i], rest_positions, max_displacement_sq, first_bad)
+    if is_active(flags) and not wp.isfinite(velocities[i]):
+        wp.atomic_min(first_bad, 0, i)
 
 
 @wp.kernel

@@ -313,12 +313,12 @@ def implicit_advance(
     positions_out: wp.array(dtype=wp.vec3),
     velocities_out: wp.array(dtype=wp.vec3),
     rest_positions: wp.array(dtype=wp.vec3),
-    max_displacement: float,
+    max_displacement_sq: float,
     first_bad: wp.array(dtype=wp.int32),
 ):
     """x' = x + h v' (free nodes); pinned and inactive nodes stay, with zero velocity.
     The new state is checked (``diagnostics.report_runaway``: rest_positions [m],
-    max_displacement [m], first_bad (1,) int32 lowered to the first bad node)."""
+    max_displacement_sq [m^2], first_bad (1,) int32 lowered to the first bad node)."""
     i = wp.tid() * chunk
     end = wp.min(i + chunk, count)
     while i < end:
@@ -331,8 +331,7 @@ def implicit_advance(
             v = velocity_new[i]
             positions_out[i] = x + h * v
             velocities_out[i] = v
-        report_runaway(i, flags, positions_out[i], velocities_out[i], rest_positions,
-                       max_displacement, first_bad)
+        report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
         i += 1
 
 

@@ -43,7 +43,7 @@ def _make(gravity: bool, collision: bool):
         contact_count: wp.array(dtype=wp.int32),
         contact_position_sum: wp.array(dtype=wp.vec3),
         rest_positions: wp.array(dtype=wp.vec3),
-        max_displacement: float,
+        max_displacement_sq: float,
         first_bad: wp.array(dtype=wp.int32),
     ):
         i = wp.tid() * chunk
@@ -67,8 +67,7 @@ def _make(gravity: bool, collision: bool):
                 push_out_near_tool(i, positions_out, velocities_out, wp.vec3(m + h * damping),
                                    flags, tool_pose, h, tool_force, contact_count,
                                    contact_position_sum)
-            report_runaway(i, flags, positions_out[i], velocities_out[i], rest_positions,
-                           max_displacement, first_bad)
+            report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
             forces[i] = wp.vec3(0.0)
             i += 1
 
@@ -86,6 +85,6 @@ def integrate_kernel(gravity: bool, collision: bool):
     positions_out, velocities_out; tool_force (1,) vec3 [N], contact_count (1,) int32,
     contact_position_sum (1,) vec3 [m], accumulated; the stability guard
     (``diagnostics.report_runaway`` on the new state): rest_positions (node_count,) vec3 [m],
-    max_displacement [m], first_bad (1,) int32 lowered to the first bad node.
+    max_displacement_sq [m^2], first_bad (1,) int32 lowered to the first bad node.
     """
     return specialised("integrate", _make, gravity=bool(gravity), collision=bool(collision))

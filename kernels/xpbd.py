@@ -151,7 +151,7 @@ def _make_finish(collision: bool):
         contact_count: wp.array(dtype=wp.int32),
         contact_position_sum: wp.array(dtype=wp.vec3),
         rest_positions: wp.array(dtype=wp.vec3),
-        max_displacement: float,
+        max_displacement_sq: float,
         first_bad: wp.array(dtype=wp.int32),
     ):
         i = wp.tid() * chunk
@@ -171,8 +171,7 @@ def _make_finish(collision: bool):
                 velocities_out[i] = v * (m / (m + h * node_damping[i]))
             else:
                 velocities_out[i] = wp.vec3(0.0)
-            report_runaway(i, flags, positions_out[i], velocities_out[i], rest_positions,
-                           max_displacement, first_bad)
+            report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
             delta[i] = wp.vec3(0.0)
             i += 1
 
@@ -191,6 +190,6 @@ def finish_kernel(collision: bool):
     stiffness_sum (node_count,) [N/m] (sum of k of the node's springs, for the tool reaction),
     tool_pose (3,) vec3, h, chunk, count, delta (cleared), positions_out (x~ in, x' out),
     velocities_out, tool_force, contact_count, contact_position_sum; rest_positions,
-    max_displacement [m], first_bad (1,) int32: the stability guard, as in
+    max_displacement_sq [m^2], first_bad (1,) int32: the stability guard, as in
     ``integrate.integrate_kernel``."""
     return specialised("xpbd_finish", _make_finish, collision=bool(collision))

@@ -10,7 +10,7 @@ import warp as wp
 
 from .cut.cutter import CutSettings, Cutter
 from .errors import InputError, SimulationUnstable, ToolStartsInside
-from .kernels.diagnostics import find_runaway_nodes, kinetic_energy
+from .kernels.diagnostics import displacement_limit_sq, find_runaway_nodes, kinetic_energy
 from .kernels.scatter import scatter_vec3
 from .sim.ccd import ContinuousDetector
 from .sim.collision import cylinder_contacts
@@ -351,7 +351,7 @@ class Simulator:
         first_bad = wp.array([NO_BAD_NODE], dtype=wp.int32, device=self.device)
         wp.launch(find_runaway_nodes, dim=m.node_count, device=self.device,
                   inputs=[self._state.positions, self._state.velocities, m.rest_positions,
-                          m.node_flags, self.max_displacement, first_bad])
+                          m.node_flags, displacement_limit_sq(self.max_displacement), first_bad])
         node = int(first_bad.numpy()[0])
         if node != NO_BAD_NODE:
             self._raise_unstable(node)

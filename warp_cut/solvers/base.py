@@ -29,6 +29,7 @@ import numpy as np
 import warp as wp
 
 from ..kernels.collision import clear_tool_stats
+from ..kernels.diagnostics import displacement_limit_sq
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
 from ..sim.stability import StepLimit, stable_time_step
@@ -168,8 +169,9 @@ class SolverBase:
 
     def guard_inputs(self) -> list:
         """The stability guard's arguments, appended to each integrator's last node pass:
-        rest_positions, max_displacement [m], first_bad."""
-        return [self.model.rest_positions, self.max_displacement, self.first_bad]
+        rest_positions, max_displacement_sq [m^2], first_bad."""
+        return [self.model.rest_positions, displacement_limit_sq(self.max_displacement),
+                self.first_bad]
 
     def _set_tool(self, tool: Tool | None) -> None:
         if not self.collision or tool is self._last_tool:
