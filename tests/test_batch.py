@@ -24,7 +24,7 @@ TINY = """base = "skin_press"
 "tissue.size" = [0.02, 0.02]
 duration = 0.3
 """
-WALL_FIELDS = {"wall_time_s", "realtime_factor", "usd_write_time_s"}
+WALL_FIELDS = {"wall_time_s", "realtime_factor", "usd_write_time_s", "tick_ms"}
 """Metrics that measure the machine, not the simulation."""
 
 
