@@ -21,6 +21,7 @@ wp.config.quiet = True
 
 import bench_compile  # noqa: E402
 import bench_cut_latency  # noqa: E402
+import bench_haptic  # noqa: E402
 import bench_pareto  # noqa: E402
 import bench_pareto_incision  # noqa: E402
 import bench_realtime  # noqa: E402
@@ -36,7 +37,8 @@ def main(argv=None) -> int:
     parts = [("throughput", bench_throughput), ("pareto (hanging sheet)", bench_pareto),
              ("pareto (incision width curve)", bench_pareto_incision),
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
-             ("compile time", bench_compile), ("cut event latency", bench_cut_latency)]
+             ("compile time", bench_compile), ("cut event latency", bench_cut_latency),
+             ("haptic rate (1 ms ticks)", bench_haptic)]
     for name, module in parts:
         print(f"{name}:", flush=True)
         module.run(quick=quick)
@@ -53,7 +55,7 @@ def write_summary(seconds: float | None = None) -> None:
     if seconds is not None:
         summary.append(f"Total benchmark time: {seconds:.0f} s.")
     summary.append("")
-    for md in ("throughput", "realtime", "pareto_hanging_sheet", "stable_step", "compile"):
+    for md in ("throughput", "realtime", "pareto_hanging_sheet", "stable_step", "compile", "haptic"):
         summary.append((RESULTS / f"{md}.md").read_text())
     (RESULTS / "summary.md").write_text("\n".join(summary))
 

@@ -27,13 +27,17 @@ class TickLog:
     Args:
         capacity: ticks expected (the arrays grow if more are stepped).
         budget: a tick's deadline [s], normally the step dt.
+        cpu_time: also record the thread's CPU time per tick (``cpu_seconds``): the tick
+            without the time the operating system gave other processes.
     """
 
-    def __init__(self, capacity: int, budget: float):
+    def __init__(self, capacity: int, budget: float, *, cpu_time: bool = False):
         self.budget = float(budget)
         self.count = 0
         self.seconds = np.zeros(max(1, int(capacity)))
         """Wall time of each tick [s], valid up to ``count``."""
+        self.cpu_seconds = np.zeros(len(self.seconds)) if cpu_time else None
+        """CPU time of the stepping thread in each tick [s] (with ``cpu_time``), else None."""
         self.forces = np.zeros((len(self.seconds), 3))
         """Tool force after each tick [N], (ticks, 3)."""
         self.after_edit = np.zeros(len(self.seconds), dtype=bool)
@@ -44,12 +48,16 @@ class TickLog:
     def step(self, sim, tool=None) -> None:
         """One tick: ``sim.step(1, tool=tool)``, timed, and its tool force recorded."""
         version = sim.model.topology_version
+        if self.cpu_seconds is not None:
+            cpu = time.thread_time()
         start = time.perf_counter()
         sim.step(1, tool=tool)
         elapsed = time.perf_counter() - start
         k = self.count
         if k == len(self.seconds):
             self._grow()
+        if self.cpu_seconds is not None:
+            self.cpu_seconds[k] = time.thread_time() - cpu
         self.seconds[k] = elapsed
         self.forces[k] = sim.tool_force
         self.after_edit[k] = self._edited
@@ -59,6 +67,8 @@ class TickLog:
     def _grow(self) -> None:
         n = len(self.seconds)
         self.seconds = np.concatenate([self.seconds, np.zeros(n)])
+        if self.cpu_seconds is not None:
+            self.cpu_seconds = np.concatenate([self.cpu_seconds, np.zeros(n)])
         self.forces = np.concatenate([self.forces, np.zeros((n, 3))])
         self.after_edit = np.concatenate([self.after_edit, np.zeros(n, dtype=bool)])
 
@@ -71,10 +81,10 @@ class TickLog:
         """|F(k) - F(k - 1)| [N] for ticks k = 1 .. count - 1."""
         return np.linalg.norm(np.diff(self.forces[: self.count], axis=0), axis=1)
 
-    def tick_metrics(self) -> dict:
+    def tick_metrics(self, cpu: bool = False) -> dict:
         """``tick_ms``: p50, p99, max [ms], over_budget (ticks longer than the budget),
-        budget_ms and ticks."""
-        ms = self.seconds[: self.count] * 1e3
+        budget_ms and ticks; of the CPU times with ``cpu``."""
+        ms = (self.cpu_seconds if cpu else self.seconds)[: self.count] * 1e3
         if not len(ms):
             return {"p50": None, "p99": None, "max": None, "over_budget": 0,
                     "budget_ms": self.budget * 1e3, "ticks": 0}
