@@ -38,15 +38,16 @@ class ScriptedSim:
 
 def test_tick_metrics_of_planted_times():
     log = TickLog(4, budget=1e-3)  # grows past its capacity
-    ms = np.concatenate([np.full(97, 0.2), [0.9, 1.5, 7.0]])
+    ms = np.concatenate([[40.0], np.full(97, 0.2), [0.9, 1.5, 7.0]])  # the first tick compiles
     sim = ScriptedSim(np.zeros((len(ms), 3)))
     for _ in ms:
         log.step(sim)
     log.seconds[: log.count] = ms * 1e-3  # replace the measured times by planted ones
     t = log.tick_metrics()
-    assert t["ticks"] == 100 and t["over_budget"] == 2 and t["budget_ms"] == pytest.approx(1.0)
+    assert t["ticks"] == 101 and t["first_ms"] == pytest.approx(40.0)
+    assert t["over_budget"] == 2 and t["budget_ms"] == pytest.approx(1.0)
     assert t["p50"] == pytest.approx(0.2) and t["max"] == pytest.approx(7.0)
-    assert t["p99"] == pytest.approx(np.percentile(ms, 99))
+    assert t["p99"] == pytest.approx(np.percentile(ms[1:], 99))
 
 
 def test_force_jumps_and_the_ticks_after_a_cut_event():
@@ -101,7 +102,9 @@ def test_run_reports_ticks_in_metrics_and_timeseries(tmp_path):
     rows = list(csv.DictReader((out / "timeseries.csv").open()))
     per_frame = np.array([float(r["tick_max_ms"]) for r in rows])
     assert per_frame[0] == 0.0 and np.all(per_frame[1:] > 0)  # frame 0 is the initial state
-    assert per_frame.max() == pytest.approx(t["max"])
+    assert per_frame[1] >= t["first_ms"]  # frame 1 holds the first tick
+    assert per_frame[2:].max() <= t["max"] + 1e-9
+    assert max(per_frame.max(), t["first_ms"]) == pytest.approx(max(t["max"], t["first_ms"]))
     forces = np.array([[float(r[c]) for c in ("tool_fx", "tool_fy", "tool_fz")] for r in rows])
     # the frames sample the ticks: their changes are no larger than the sum of the ticks'
     assert np.linalg.norm(np.diff(forces, axis=0), axis=1).max() <= j["max"] * (m["steps"] / 6) + 1e-12
