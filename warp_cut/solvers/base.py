@@ -110,15 +110,21 @@ class SolverBase:
     def step(self, state_in, state_out, tool: Tool | None, h: float) -> None:
         """Advance by one substep h [s]."""
         self._set_tool(tool)
-        m = self.model
-        key = (state_in.positions.ptr, state_out.positions.ptr, float(h), m.node_count,
-               m.spring_count, m.link_count)
-        sequence = self._sequences.get(key)
+        sequence = self._sequences.get(self._key(state_in, state_out, h))
         if sequence is None:
-            sequence = LaunchSequence(self.device, self.replay)
-            self._record(sequence, state_in, state_out, float(h))
-            self._sequences[key] = sequence.finalize()
+            # states ping-pong: record the swapped pair's sequence too, so that a new recording
+            # (the first step, a cut) lengthens one step, not two in a row
+            for a, b in ((state_out, state_in), (state_in, state_out)):
+                sequence = LaunchSequence(self.device, self.replay)
+                self._record(sequence, a, b, float(h))
+                self._sequences[self._key(a, b, h)] = sequence.finalize()
         sequence.launch()
+
+    def _key(self, state_in, state_out, h: float) -> tuple:
+        """What a recorded sequence depends on: the state buffers, h and the model's counts."""
+        m = self.model
+        return (state_in.positions.ptr, state_out.positions.ptr, float(h), m.node_count,
+                m.spring_count, m.link_count)
 
     # ------------------------------------------------------------------ helpers
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
