@@ -335,6 +335,8 @@ class Simulator:
         else:
             self.solver.topology_changed()
         self.update_step_limit(explicit_limit if self.integrator == "semi_implicit" else None)
+        # record the new launches now, in the step that made the edit, not in the next one
+        self.solver.prepare(self._state, self._next, self.substep)
 
     def update_step_limit(self, limit: StepLimit | None = None) -> None:
         """Set the stable step (recomputed from the model if not given) and the substeps."""

@@ -15,6 +15,7 @@ The solver contract (the Simulator relies on it):
 * ``readout``: a ``StepReadout`` of ``first_bad`` and the tool statistics;
 * ``topology_changed()`` after the device arrays were edited in place or reallocated: the
   solver drops its recorded launches and re-derives what it keeps (spring order, valences);
+  ``prepare(state_in, state_out, h)`` records the launches ahead of the next ``step``;
 * ``step_limit(model, positions)`` (class method): the StepLimit the automatic step uses.
 
 Launch dims come from the DeviceModel's counts, read at every step; a change of a count
@@ -112,13 +113,20 @@ class SolverBase:
         self._set_tool(tool)
         sequence = self._sequences.get(self._key(state_in, state_out, h))
         if sequence is None:
-            # states ping-pong: record the swapped pair's sequence too, so that a new recording
-            # (the first step, a cut) lengthens one step, not two in a row
-            for a, b in ((state_out, state_in), (state_in, state_out)):
+            sequence = self.prepare(state_in, state_out, h)
+        sequence.launch()
+
+    def prepare(self, state_in, state_out, h: float) -> LaunchSequence:
+        """Record the launches of a substep from ``state_in`` to ``state_out`` now (``step``
+        would on first use) and return them. The states ping-pong, so the swapped pair is
+        recorded too: a new recording (the first step, a cut) lengthens one step, not two."""
+        for a, b in ((state_out, state_in), (state_in, state_out)):
+            key = self._key(a, b, h)
+            if key not in self._sequences:
                 sequence = LaunchSequence(self.device, self.replay)
                 self._record(sequence, a, b, float(h))
-                self._sequences[self._key(a, b, h)] = sequence.finalize()
-        sequence.launch()
+                self._sequences[key] = sequence.finalize()
+        return self._sequences[self._key(state_in, state_out, h)]
 
     def _key(self, state_in, state_out, h: float) -> tuple:
         """What a recorded sequence depends on: the state buffers, h and the model's counts."""
