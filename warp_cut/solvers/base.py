@@ -9,9 +9,10 @@ The solver contract (the Simulator relies on it):
 * ``clear_tool_stats()`` and the stats arrays ``tool_force`` (1,) vec3 [N], ``contact_count``
   (1,) int32, ``contact_position_sum`` (1,) vec3 [m], accumulated over substeps;
 * the stability guard ``first_bad`` (1,) int32: the last node pass of every substep lowers it
-  to the index of any active node whose new state is non-finite or farther than
-  ``max_displacement`` [m] from rest (``kernels.diagnostics.report_runaway``); it stays at
-  ``NO_BAD_NODE`` while all is well and is reset by ``readout.clear_bad_node()``;
+  to the index of any active node whose new position is non-finite or farther than
+  ``max_displacement`` [m] from rest (``kernels.diagnostics.report_runaway``; a non-finite
+  velocity makes the position non-finite in the same pass); it stays at ``NO_BAD_NODE`` while
+  all is well and is reset by ``readout.clear_bad_node()``;
 * ``readout``: a ``StepReadout`` of ``first_bad`` and the tool statistics;
 * ``topology_changed()`` after the device arrays were edited in place or reallocated: the
   solver drops its recorded launches and re-derives what it keeps (spring order, valences);
