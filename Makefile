@@ -22,7 +22,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check warp_cut kernels tests benchmarks
+	$(VENV)/bin/ruff check warp_cut kernels tests benchmarks examples
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[bench]"

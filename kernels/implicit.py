@@ -25,6 +25,8 @@ block diagonals' diagonal).
 
 import warp as wp
 
+from .diagnostics import report_runaway
+from .flags import is_free
 from .springs import SPRING_MIN_LENGTH
 
 wp.set_module_options({"enable_backward": False})
@@ -186,7 +188,7 @@ def cg_start(
     while i < end:
         flags = node_flags[i]
         zero = wp.vec3(0.0)
-        if (flags & 1) == 0 or (flags & 2) != 0:
+        if not is_free(flags):
             x[i] = zero
             r[i] = zero
             z[i] = zero
@@ -234,7 +236,7 @@ def cg_curvature(
     end = wp.min(i + chunk, count)
     while i < end:
         flags = node_flags[i]
-        if (flags & 1) == 0 or (flags & 2) != 0:
+        if not is_free(flags):
             ap[i] = wp.vec3(0.0)
         else:
             pi = p[i]
@@ -310,20 +312,26 @@ def implicit_advance(
     count: int,
     positions_out: wp.array(dtype=wp.vec3),
     velocities_out: wp.array(dtype=wp.vec3),
+    rest_positions: wp.array(dtype=wp.vec3),
+    max_displacement_sq: float,
+    first_bad: wp.array(dtype=wp.int32),
 ):
-    """x' = x + h v' (free nodes); pinned and inactive nodes stay, with zero velocity."""
+    """x' = x + h v' (free nodes); pinned and inactive nodes stay, with zero velocity.
+    The new state is checked (``diagnostics.report_runaway``: rest_positions [m],
+    max_displacement_sq [m^2], first_bad (1,) int32 lowered to the first bad node)."""
     i = wp.tid() * chunk
     end = wp.min(i + chunk, count)
     while i < end:
         flags = node_flags[i]
         x = positions_in[i]
-        if (flags & 1) == 0 or (flags & 2) != 0:
+        if not is_free(flags):
             positions_out[i] = x
             velocities_out[i] = wp.vec3(0.0)
         else:
             v = velocity_new[i]
             positions_out[i] = x + h * v
             velocities_out[i] = v
+        report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
         i += 1
 
 

@@ -9,12 +9,15 @@ The kernel also clears ``forces`` for the next substep, which saves a launch.
 
 One pass over the nodes does all per-node work of a substep: gravity (F += m g) and the
 tool (``collision.push_out_near_tool`` on the new position) are folded in when a scene enables
-them, as separately compiled variants (``variants.specialised``).
+them, as separately compiled variants (``variants.specialised``). The new state is checked in
+the same pass (``diagnostics.report_runaway``).
 """
 
 import warp as wp
 
 from .collision import push_out_near_tool
+from .diagnostics import report_runaway
+from .flags import is_free
 from .variants import specialised, variant_family
 
 wp.set_module_options({"enable_backward": False})
@@ -39,6 +42,9 @@ def _make(gravity: bool, collision: bool):
         tool_force: wp.array(dtype=wp.vec3),
         contact_count: wp.array(dtype=wp.int32),
         contact_position_sum: wp.array(dtype=wp.vec3),
+        rest_positions: wp.array(dtype=wp.vec3),
+        max_displacement_sq: float,
+        first_bad: wp.array(dtype=wp.int32),
     ):
         i = wp.tid() * chunk
         end = wp.min(i + chunk, count)
@@ -47,7 +53,7 @@ def _make(gravity: bool, collision: bool):
             flags = node_flags[i]
             m = node_mass[i]
             damping = node_damping[i]
-            if (flags & 1) == 0 or (flags & 2) != 0:
+            if not is_free(flags):
                 positions_out[i] = x
                 velocities_out[i] = wp.vec3(0.0)
             else:
@@ -61,6 +67,7 @@ def _make(gravity: bool, collision: bool):
                 push_out_near_tool(i, positions_out, velocities_out, wp.vec3(m + h * damping),
                                    flags, tool_pose, h, tool_force, contact_count,
                                    contact_position_sum)
+            report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
             forces[i] = wp.vec3(0.0)
             i += 1
 
@@ -76,6 +83,8 @@ def integrate_kernel(gravity: bool, collision: bool):
     tool_pose (3,) vec3: p0, p1 [m], (radius [m], 0, 0), radius 0 = no tool; h [s]; chunk,
     count (thread t handles nodes [t chunk, min((t + 1) chunk, count))); outputs
     positions_out, velocities_out; tool_force (1,) vec3 [N], contact_count (1,) int32,
-    contact_position_sum (1,) vec3 [m], accumulated.
+    contact_position_sum (1,) vec3 [m], accumulated; the stability guard
+    (``diagnostics.report_runaway`` on the new state): rest_positions (node_count,) vec3 [m],
+    max_displacement_sq [m^2], first_bad (1,) int32 lowered to the first bad node.
     """
     return specialised("integrate", _make, gravity=bool(gravity), collision=bool(collision))

@@ -23,6 +23,8 @@ residual links are explicit forces (their stiffness F / eps bounds the step, see
 import warp as wp
 
 from .collision import push_out_near_tool
+from .diagnostics import report_runaway
+from .flags import is_free
 from .springs import SPRING_MIN_LENGTH
 from .variants import specialised, variant_family
 
@@ -55,7 +57,7 @@ def spring_valence(
 
 @wp.func
 def inverse_mass(flags: int, mass: float):
-    if (flags & 1) == 0 or (flags & 2) != 0:
+    if not is_free(flags):
         return 0.0
     return 1.0 / mass
 
@@ -116,7 +118,7 @@ def _make_predict(gravity: bool):
         while i < end:
             x = positions_in[i]
             flags = node_flags[i]
-            if (flags & 1) == 0 or (flags & 2) != 0:
+            if not is_free(flags):
                 positions_out[i] = x
             else:
                 m = node_mass[i]
@@ -148,13 +150,16 @@ def _make_finish(collision: bool):
         tool_force: wp.array(dtype=wp.vec3),
         contact_count: wp.array(dtype=wp.int32),
         contact_position_sum: wp.array(dtype=wp.vec3),
+        rest_positions: wp.array(dtype=wp.vec3),
+        max_displacement_sq: float,
+        first_bad: wp.array(dtype=wp.int32),
     ):
         i = wp.tid() * chunk
         end = wp.min(i + chunk, count)
         while i < end:
             flags = node_flags[i]
             m = node_mass[i]
-            free = (flags & 1) != 0 and (flags & 2) == 0
+            free = is_free(flags)
             if free:
                 positions_out[i] = positions_out[i] + delta[i]
             if wp.static(collision):
@@ -166,6 +171,7 @@ def _make_finish(collision: bool):
                 velocities_out[i] = v * (m / (m + h * node_damping[i]))
             else:
                 velocities_out[i] = wp.vec3(0.0)
+            report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
             delta[i] = wp.vec3(0.0)
             i += 1
 
@@ -183,5 +189,7 @@ def finish_kernel(collision: bool):
     """Step 3. Arguments: positions_in (x at the start), node_mass, node_damping, node_flags,
     stiffness_sum (node_count,) [N/m] (sum of k of the node's springs, for the tool reaction),
     tool_pose (3,) vec3, h, chunk, count, delta (cleared), positions_out (x~ in, x' out),
-    velocities_out, tool_force, contact_count, contact_position_sum."""
+    velocities_out, tool_force, contact_count, contact_position_sum; rest_positions,
+    max_displacement_sq [m^2], first_bad (1,) int32: the stability guard, as in
+    ``integrate.integrate_kernel``."""
     return specialised("xpbd_finish", _make_finish, collision=bool(collision))

@@ -39,6 +39,10 @@ def _cmd_run(args) -> int:
         print(f"{scene.name}: {m['nodes']} nodes, {m['springs']} springs, {m['steps']} steps of "
               f"{m['dt']:.3g} s x {m['substeps']} substeps, {m['wall_time_s']:.2f} s wall "
               f"({m['realtime_factor']:.2f}x real time)")
+        ticks = m.get("tick_ms")
+        if ticks and ticks["p50"] is not None:
+            print(f"  ticks: p50 {ticks['p50']:.3f} ms, p99 {ticks['p99']:.3f} ms, max {ticks['max']:.3f} ms, "
+                  f"{ticks['over_budget']} of {ticks['ticks']} over the {ticks['budget_ms']:.3g} ms budget")
         for path in written:
             print(f"  wrote {path}")
     return EXIT_OK

@@ -20,12 +20,14 @@ from .mesh.checks import check_mesh
 from .scene import Scene
 from .simulator import Simulator
 from .solvers import INTEGRATORS
+from .ticks import TickLog, frozen_gc
 
 __all__ = ["RunResult", "prepare_simulation", "run_scene", "run_to_directory", "record_frame",
            "run_metrics", "write_outputs", "TIMESERIES_COLUMNS"]
 
-TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy"]
-"""Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J]."""
+TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy", "tick_max_ms"]
+"""Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J], the
+longest tick (one step) of the frame [ms]."""
 
 
 @dataclass
@@ -85,40 +87,45 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
     frames = scene.frame_count
     columns = TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
     series = {c: np.zeros(frames + 1) for c in columns}
+    ticks = TickLog(frames * steps_per_frame, budget=sim.dt)
     bar = _progress(frames, quiet)
     start = time.perf_counter()
     try:
-        for frame in range(frames + 1):
-            if frame:
-                sim.step(steps_per_frame, tool=path)
-            for obs in observers:
-                obs.on_frame(sim, frame)
-            record_frame(series, frame, sim)
-            if bar is not None and frame:
-                bar.update(1)
+        with frozen_gc():
+            for frame in range(frames + 1):
+                for _ in range(steps_per_frame if frame else 0):
+                    ticks.step(sim, path)  # one step per tick, as a haptic loop calls it
+                for obs in observers:
+                    obs.on_frame(sim, frame)
+                record_frame(series, frame, sim, ticks)
+                if bar is not None and frame:
+                    bar.update(1)
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
-    metrics = run_metrics(scene, sim, series, steps=frames * steps_per_frame, wall_time=wall)
+    metrics = run_metrics(scene, sim, series, steps=frames * steps_per_frame, wall_time=wall,
+                          ticks=ticks if path is not None else None)
     for obs in observers:
         obs.finish(metrics)
     return RunResult(metrics, series, final_mesh(sim))
 
 
-def record_frame(series: dict, frame: int, sim: Simulator) -> None:
+def record_frame(series: dict, frame: int, sim: Simulator, ticks: TickLog | None = None) -> None:
     """Fill row ``frame`` of the time series (``TIMESERIES_COLUMNS`` and, when cutting,
-    ``incision_width_m``) from the simulator's state after that frame."""
+    ``incision_width_m``) from the simulator's state after that frame; ``tick_max_ms`` from
+    ``ticks`` (the frame's ticks; 0 without)."""
     series["t"][frame] = sim.time
     series["tool_fx"][frame], series["tool_fy"][frame], series["tool_fz"][frame] = sim.tool_force
     series["contacts"][frame] = sim.contact_count
     series["kinetic_energy"][frame] = sim.kinetic_energy()
+    series["tick_max_ms"][frame] = ticks.frame_max_ms() if ticks is not None else 0.0
     if sim.cutter is not None:
         series["incision_width_m"][frame] = sim.cutter.incision_width(sim.positions)
 
 
 def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
-                wall_time: float) -> dict:
+                wall_time: float, ticks: TickLog | None = None) -> dict:
     """The content of metrics.json for a run of ``scene`` that has reached ``sim.time``.
 
     Args:
@@ -127,6 +134,7 @@ def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
         series: the time series so far (``record_frame``), name -> (frames + 1,).
         steps: steps taken.
         wall_time: wall-clock time of the stepping [s].
+        ticks: the run's ticks (``tick_ms`` and ``tool_force_jump_n`` are added), or None.
     """
     model = sim.model
     metrics = {
@@ -154,6 +162,8 @@ def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
         "finite": True,
         "mesh": mesh_quality(sim),
     }
+    if ticks is not None:
+        metrics.update(ticks.metrics())
     if sim.cutter is not None:
         metrics.update(sim.cutter.metrics(sim.positions))
         metrics["width_curve"] = width_curve_metrics(series["t"], series["incision_width_m"])

@@ -33,14 +33,14 @@ class ImplicitEulerSolver(SolverBase):
 
     def __init__(self, model, *, gravity=None, residual_stress: bool = True,
                  collision: bool = True, replay: str = "auto", cg_iterations: int = 40,
-                 cg_tolerance: float = 1e-4):
+                 cg_tolerance: float = 1e-4, max_displacement: float = math.inf):
         self.cg_iterations = int(cg_iterations)
         self.cg_tolerance = float(cg_tolerance)
         device = model.device
         self.cg = wp.zeros((self.cg_iterations + 1, 2), dtype=wp.float64, device=device)
         """CG scalars per iteration: r.z and p.Ap."""
         super().__init__(model, gravity=gravity, residual_stress=residual_stress,
-                         collision=collision, replay=replay)
+                         collision=collision, replay=replay, max_displacement=max_displacement)
 
     @classmethod
     def step_limit(cls, model, positions=None) -> StepLimit:
@@ -95,8 +95,11 @@ class ImplicitEulerSolver(SolverBase):
             seq.add(K.cg_descend, nt, [v["p"], v["inv_diagonal"], k, tol2, chunk, n, v["ap"],
                                        v["x"], v["r"], v["z"], self.cg])
             seq.add(K.cg_direction, nt, [v["z"], k, tol2, chunk, n, v["p"], self.cg])
+        # the guard runs here; the push-out below moves a finite node by at most the tool
+        # radius, with finite inertia, so it cannot make a finite state non-finite
         seq.add(K.implicit_advance, nt, [x_in, v["x"], m.node_flags, h, chunk, n,
-                                         state_out.positions, state_out.velocities])
+                                         state_out.positions, state_out.velocities]
+                + self.guard_inputs())
         if self.collision:
             seq.add(cylinder_push_out, n,
                     [state_out.positions, state_out.velocities, m.node_mass, m.node_damping,

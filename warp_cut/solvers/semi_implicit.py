@@ -20,7 +20,7 @@ class SemiImplicitSolver(SolverBase):
     the nodes that adds gravity, integrates, pushes nodes out of the tool and clears the force
     accumulator (``kernels.integrate``). Conditionally stable: see ``warp_cut.sim.stability``.
     tool_force (1,) vec3 [N], contact_count (1,) int32 and contact_position_sum (1,) vec3 [m]
-    accumulate over substeps until ``clear_tool_stats``.
+    accumulate over substeps until ``clear_tool_stats``; the node pass runs the stability guard.
     """
 
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
@@ -38,4 +38,4 @@ class SemiImplicitSolver(SolverBase):
                  m.node_flags, self.gravity if self.gravity is not None else wp.vec3(0.0),
                  self.tool_pose, h, self.chunk, m.node_count, state_out.positions,
                  state_out.velocities, self.tool_force, self.contact_count,
-                 self.contact_position_sum])
+                 self.contact_position_sum] + self.guard_inputs())

@@ -67,7 +67,7 @@ class XPBDSolver(SolverBase):
                 [x_in, m.node_mass, m.node_damping, m.node_flags, self._stiffness_sum,
                  self.tool_pose, h, chunk, n,
                  self._delta, state_out.positions, state_out.velocities, self.tool_force,
-                 self.contact_count, self.contact_position_sum])
+                 self.contact_count, self.contact_position_sum] + self.guard_inputs())
 
 
 class _LinksOnly:
