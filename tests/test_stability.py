@@ -7,8 +7,8 @@ import pytest
 from conftest import DEVICE, chain_model
 
 from warp_cut import SimulationUnstable, Simulator, TissueModel, stable_time_step
-from warp_cut.solvers import INTEGRATORS
 from warp_cut.sim.stability import spring_geometric_factor
+from warp_cut.solvers import INTEGRATORS
 
 
 def free_stiffness_matrix(model):
