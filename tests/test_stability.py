@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import DEVICE, chain_model
 
-from warp_cut import SimulationUnstable, Simulator, TissueModel, stable_time_step
+from warp_cut import Material, SimulationUnstable, Simulator, TissueModel, stable_time_step
 from warp_cut.sim.stability import spring_geometric_factor
 from warp_cut.solvers import INTEGRATORS
 
@@ -69,6 +69,8 @@ def test_undamped_chain_at_095_of_computed_limit_stays_bounded():
     model = chain_model(8, mass=0.01, stiffness=100.0)
     h = 0.95 * stable_time_step(model).step
     amp = energy_bounded_run(model, h, 20000)
+    # bounded: within 20 x the 1 mm start (an unstable mode grows exponentially and is caught,
+    # next test); the displacement itself swings with the modes' phases, no closer bound
     assert np.all(np.isfinite(amp)) and amp.max() < 0.02
 
 
@@ -90,7 +92,7 @@ def test_damped_limit_is_safe_and_larger():
     assert lim.step > lim.undamped_step
     assert lim.step <= exact_limit(model, D / m) * (1 + 1e-12)
     amp = energy_bounded_run(model, 0.95 * lim.step, 5000)
-    assert amp.max() < 0.01
+    assert amp.max() < 0.01  # bounded (10 x the start); it decays, being damped
 
 
 def test_auto_substeps_respect_the_limit():
@@ -124,8 +126,6 @@ def test_damped_per_node_limit_is_stable_with_uneven_masses(seed):
     """Light and heavy nodes mixed (as lip nodes after a cut): 0.95 x the estimate is stable
     by the eigenvalues of the iteration itself."""
     rng = np.random.default_rng(seed)
-    from warp_cut import Material
-
     n = 7
     pts = np.column_stack([np.arange(n) * 0.1, np.zeros(n), np.zeros(n)])
     masses = 10.0 ** rng.uniform(-6, -2, n)
