@@ -265,8 +265,10 @@ def _run_scenarios(runner: _Round, todo: list) -> None:
     queue, suspects = list(todo), []
     while queue or suspects:
         alone = bool(suspects)
-        scenarios = [suspects.pop(0)] if alone else queue
-        queue = [] if not alone else queue
+        if alone:
+            scenarios = [suspects.pop(0)]
+        else:
+            scenarios, queue = queue, []
         broken = runner.run(scenarios)
         if not broken:
             continue
