@@ -165,21 +165,56 @@ def test_topology_change_and_classes_are_authored_when_they_change(tmp_path):
     _assert_valid(path)
 
 
+class _Topology:
+    """Observer keeping each frame's live nodes, their positions and classes, the triangles
+    and the incision's control points (the reference a cut's USD must match)."""
+
+    def __init__(self):
+        self.frames = []
+
+    def on_frame(self, sim, frame):
+        model = sim.model
+        live = np.flatnonzero(model.active)
+        controls = sim.incision_controls
+        self.frames.append((live, sim.state.positions.numpy()[live], model.triangles.copy(),
+                            model.node_class[live].copy(),
+                            None if controls is None else controls.copy()))
+
+    def finish(self, metrics):
+        pass
+
+
 def test_a_real_cut_is_exported_with_its_topology_changes_and_incision(tmp_path):
-    out = tmp_path / "cut"
-    assert main(["run", "paper_width_curve", "--quiet", "--out", str(out), "--usd-chunk", "16",
-                 "--set", "duration=0.8"]) == 0
-    stage = Usd.Stage.Open(str(out / "paper_width_curve.usdc"))
+    scene = load_scene("paper_width_curve", ["duration=0.8"])
+    path = tmp_path / "cut" / "paper_width_curve.usdc"
+    ref = _Topology()
+    run_scene(scene, observers=[ref, UsdRecorder(path, scene, chunk_frames=16)])
+    stage = Usd.Stage.Open(str(path))
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Tissue"))
-    counts = {len(mesh.GetPointsAttr().Get(t)) for t in range(0, 49)}
-    assert len(counts) > 3  # the cut deletes and adds nodes as it goes
+    primvars = UsdGeom.PrimvarsAPI(mesh)
     curves = UsdGeom.BasisCurves(stage.GetPrimAtPath("/World/Incision"))
-    assert list(curves.GetCurveVertexCountsAttr().Get(0)) == []
-    n = list(curves.GetCurveVertexCountsAttr().Get(48))
-    assert len(n) == 1 and n[0] >= 4 and (n[0] - 1) % 3 == 0
-    classes = set(np.array(UsdGeom.PrimvarsAPI(mesh).GetPrimvar("displayColor").GetIndices(48)))
-    assert {NodeClass.NORMAL, NodeClass.LIP, NodeClass.BLUE} <= classes
-    assert (out / "width.png").is_file()
+    assert len(ref.frames) == scene.frame_count + 1 == stage.GetEndTimeCode() + 1
+    for frame, (live, x, triangles, classes, controls) in enumerate(ref.frames):
+        # each frame holds the live nodes of that frame (numbered by nodeIndex), the model's
+        # triangles in that numbering, the node classes and the incision curve
+        node_index = np.array(primvars.GetPrimvar("nodeIndex").Get(frame))
+        np.testing.assert_array_equal(node_index, live)
+        np.testing.assert_array_equal(np.array(mesh.GetPointsAttr().Get(frame)), x)
+        faces = np.array(mesh.GetFaceVertexIndicesAttr().Get(frame)).reshape(-1, 3)
+        np.testing.assert_array_equal(node_index[faces], triangles)
+        assert set(mesh.GetFaceVertexCountsAttr().Get(frame)) <= {3}
+        np.testing.assert_array_equal(np.array(primvars.GetPrimvar("displayColor").GetIndices(frame)),
+                                      classes)
+        counts = list(curves.GetCurveVertexCountsAttr().Get(frame))
+        if controls is None:
+            assert counts == []
+        else:
+            assert counts == [len(controls)] and (len(controls) - 1) % 3 == 0
+            np.testing.assert_allclose(np.array(curves.GetPointsAttr().Get(frame)), controls,
+                                       rtol=0, atol=1e-7)  # float32 in the file
+    # the run did cut: the topology and the classes changed while it was recorded
+    assert len({len(f[0]) for f in ref.frames}) > 1 and ref.frames[-1][4] is not None
+    assert {NodeClass.NORMAL, NodeClass.LIP, NodeClass.BLUE} <= set(ref.frames[-1][3])
     # every time sample checked by the conftest fixture (usd-check and UsdValidation)
 
 

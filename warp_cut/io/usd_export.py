@@ -313,6 +313,11 @@ class UsdRecorder:
             if not np.all(np.isfinite(pts)):
                 raise ValueError("incision_controls holds a non-finite point")
         counts = [] if len(pts) == 0 else [len(pts)]
+        # points every frame the curve exists: a reader interpolates float samples linearly,
+        # so a value held over frames with no sample would show a blend of its neighbours
+        if len(pts):
+            self._held.pop((INCISION, "points"), None)
+            self._held.pop((INCISION, "extent"), None)
         self._set_held(INCISION, "points", frame, pts, lambda: Vt.Vec3fArray.FromNumpy(pts))
         self._set_held(INCISION, "curveVertexCounts", frame, len(pts), lambda: Vt.IntArray(counts))
         self._set_held(INCISION, "extent", frame, pts, lambda: _extent(pts, 0.5 * self._curve_width))
