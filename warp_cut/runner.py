@@ -15,7 +15,8 @@ from .scene import Scene
 from .simulator import Simulator
 from .solver import INTEGRATORS
 
-__all__ = ["RunResult", "prepare_simulation", "run_scene", "write_outputs", "TIMESERIES_COLUMNS"]
+__all__ = ["RunResult", "prepare_simulation", "run_scene", "run_metrics", "frame_values",
+           "timeseries_columns", "write_outputs", "TIMESERIES_COLUMNS"]
 
 TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy"]
 """Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J]."""
@@ -66,10 +67,9 @@ def _progress(total: int, quiet: bool):
 def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
     """Run a scene to its end. ``observers`` get ``on_frame(sim, frame)`` after every output
     frame (frame 0 is the initial state) and ``finish(metrics)`` at the end."""
-    model, sim, path, steps_per_frame = prepare_simulation(scene)
+    _, sim, path, steps_per_frame = prepare_simulation(scene)
     frames = scene.frame_count
-    columns = TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
-    cols = {c: np.zeros(frames + 1) for c in columns}
+    cols = {c: np.zeros(frames + 1) for c in timeseries_columns(sim)}
     bar = _progress(frames, quiet)
     for obs in observers:
         obs.on_frame(sim, 0)
@@ -82,16 +82,47 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
                     obs.on_frame(sim, frame)
                 if bar is not None:
                     bar.update(1)
-            cols["t"][frame] = sim.time
-            cols["tool_fx"][frame], cols["tool_fy"][frame], cols["tool_fz"][frame] = sim.tool_force
-            cols["contacts"][frame] = sim.contact_count
-            cols["kinetic_energy"][frame] = sim.kinetic_energy()
-            if sim.cutter is not None:
-                cols["incision_width_m"][frame] = sim.cutter.incision_width()
+            for name, value in frame_values(sim).items():
+                cols[name][frame] = value
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
+    metrics = run_metrics(scene, sim, frames=frames, steps=frames * steps_per_frame,
+                          wall_time=wall, columns=cols)
+    for obs in observers:
+        obs.finish(metrics)
+    return RunResult(metrics, cols, final_mesh(sim))
+
+
+def timeseries_columns(sim) -> list[str]:
+    """Columns of timeseries.csv for this Simulator (the incision width when it cuts)."""
+    return TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
+
+
+def frame_values(sim) -> dict:
+    """One row of timeseries.csv: column name -> value for the Simulator's current state."""
+    fx, fy, fz = sim.tool_force
+    row = {"t": sim.time, "tool_fx": fx, "tool_fy": fy, "tool_fz": fz,
+           "contacts": sim.contact_count, "kinetic_energy": sim.kinetic_energy()}
+    if sim.cutter is not None:
+        row["incision_width_m"] = sim.cutter.incision_width()
+    return row
+
+
+def run_metrics(scene: Scene, sim, *, frames: int, steps: int, wall_time: float,
+                columns: dict) -> dict:
+    """The metrics.json content of a run that ends in ``sim``'s current state.
+
+    Args:
+        scene: the Scene run.
+        sim: the Simulator at the end of the run.
+        frames: output frames after t = 0.
+        steps: ``sim.step`` steps taken.
+        wall_time: wall time of the simulation loop [s].
+        columns: the time series, name -> (frames + 1,) (the width curve is measured on it).
+    """
+    model = sim.model
     metrics = {
         "name": scene.name,
         "scene_file": str(scene.path) if scene.path else None,
@@ -99,7 +130,7 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
         "springs": model.spring_count,
         "triangles": model.triangle_count,
         "frames": frames,
-        "steps": frames * steps_per_frame,
+        "steps": steps,
         "dt": sim.dt,
         "substeps": sim.substeps,
         "substep_s": sim.substep,
@@ -107,8 +138,8 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
         "stable_step_undamped_s": sim.step_limit.undamped_step,
         "integrator": sim.integrator,
         "sim_time_s": sim.time,
-        "wall_time_s": wall,
-        "realtime_factor": sim.time / wall if wall > 0 else None,
+        "wall_time_s": wall_time,
+        "realtime_factor": sim.time / wall_time if wall_time > 0 else None,
         "first_contact_time_s": sim.first_contact_time,
         "first_contact_point": sim.first_contact_point,
         "first_contact_time_exact_s": sim.first_contact_time_exact,
@@ -121,10 +152,8 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
         metrics.update(sim.cutter.metrics())
         from .width_curve import width_curve_metrics
 
-        metrics["width_curve"] = width_curve_metrics(cols["t"], cols["incision_width_m"])
-    for obs in observers:
-        obs.finish(metrics)
-    return RunResult(metrics, cols, final_mesh(sim))
+        metrics["width_curve"] = width_curve_metrics(columns["t"], columns["incision_width_m"])
+    return metrics
 
 
 def mesh_quality(sim) -> dict:
