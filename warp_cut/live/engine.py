@@ -100,6 +100,7 @@ class LiveStatus:
     force: np.ndarray
     behind_s: float
     generation: int
+    compute_s: float
 
 
 @dataclass
@@ -498,7 +499,8 @@ class LiveCut:
                               paused=self.paused, cutting=self.cutting, error=self.error,
                               frame=run.recording.frame, incisions=len(cutter.incisions),
                               cut_events=cutter.totals["events"], force=np.array(sim.tool_force),
-                              behind_s=self._clock.behind, generation=self.generation)
+                              behind_s=self._clock.behind, generation=self.generation,
+                              compute_s=run.recording.compute_time)
 
 
 def _number(value, name: str) -> float:

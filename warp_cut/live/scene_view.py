@@ -66,12 +66,17 @@ class SceneView:
         server.scene.set_up_direction("+z")
 
     def look_at(self, frame: ViewFrame) -> None:
-        """Point the initial camera of new browser tabs at the tissue, from above and in front."""
+        """Point the initial camera of new pages at the tissue, from above and in front (the
+        tissue a little left of the middle, clear of the control panel on the right)."""
         lo, hi = frame.points.min(axis=0), frame.points.max(axis=0)
-        centre, size = 0.5 * (lo + hi), float(np.max(hi - lo))
+        self.aim(0.5 * (lo + hi) + [0.15 * (hi[0] - lo[0]), 0.0, 0.0], float(np.max(hi - lo)))
+
+    def aim(self, target, size: float) -> None:
+        """Point the initial camera of new pages at ``target`` (3,) [m] from above and in front,
+        at a distance that shows about ``size`` [m]."""
         camera = self.server.initial_camera
-        camera.look_at = centre
-        camera.position = centre + np.array([0.0, -0.55, 0.75]) * size
+        camera.look_at = np.asarray(target, dtype=np.float64)
+        camera.position = camera.look_at + np.array([0.0, -0.55, 0.75]) * size
         camera.up = (0.0, 0.0, 1.0)
         camera.near = 0.01 * size
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from .engine import LiveCut
 
-__all__ = ["straight_cut", "wait_until_arrived"]
+__all__ = ["straight_cut", "stroke_targets", "wait_until_arrived"]
 
 
 def wait_until_arrived(live: LiveCut, *, timeout: float = 120.0, settle: float = 0.0) -> None:
@@ -40,20 +40,27 @@ def wait_until_arrived(live: LiveCut, *, timeout: float = 120.0, settle: float =
             live.advance(live.steps_per_frame)
 
 
-def straight_cut(live: LiveCut, length: float, *, depth: float = 0.004, settle: float = 0.1,
-                 timeout: float = 300.0) -> None:
-    """Cut ``length`` [m] along the scalpel's heading, ``depth`` [m] below the rest surface:
-    in along the axis, along, out along the axis, back to the start pose; ``settle`` [s] after
-    each move."""
+def stroke_targets(live: LiveCut, length: float, depth: float = 0.004) -> dict:
+    """The tips [m] of a straight stroke from the scalpel's target now: ``in`` (along the axis
+    to ``depth`` [m] below the rest surface), ``along`` (``length`` [m] along the heading) and
+    ``out`` (back up along the axis)."""
     start = live.target
     axis = start.axis
     below = depth + float(start.tip[2]) - live.surface_height(*start.tip[:2])
     tip_in = start.tip - (below / axis[2]) * axis
     heading = np.radians(start.heading_deg)
-    along = np.array([np.cos(heading), np.sin(heading), 0.0])
-    tip_end = tip_in + length * along
-    for target in (tip_in, tip_end, tip_end + (start.tip - tip_in)):  # out along the axis
-        live.set_target(target)
+    tip_end = tip_in + length * np.array([np.cos(heading), np.sin(heading), 0.0])
+    return {"in": tip_in, "along": tip_end, "out": tip_end + (start.tip - tip_in)}
+
+
+def straight_cut(live: LiveCut, length: float, *, depth: float = 0.004, settle: float = 0.1,
+                 back_to_start: bool = True, timeout: float = 300.0) -> None:
+    """Cut ``length`` [m] along the scalpel's heading, ``depth`` [m] below the rest surface:
+    in along the axis, along, out along the axis, back to the start pose (unless
+    ``back_to_start`` is false); ``settle`` [s] after each move."""
+    for tip in stroke_targets(live, length, depth).values():
+        live.set_target(tip)
         wait_until_arrived(live, timeout=timeout, settle=settle)
-    live.return_to_start()
-    wait_until_arrived(live, timeout=timeout, settle=settle)
+    if back_to_start:
+        live.return_to_start()
+        wait_until_arrived(live, timeout=timeout, settle=settle)

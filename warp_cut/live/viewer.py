@@ -54,6 +54,7 @@ class LiveViewer:
         self.view.look_at(frame)
         self._seq = -1
         self._syncing = False
+        self._shown_target = live.target
         self._push_times: collections.deque = collections.deque(maxlen=64)
         self._force: collections.deque = collections.deque()
         self._stop = threading.Event()
@@ -158,7 +159,7 @@ class LiveViewer:
         self.notify("saved", f"{len(paths)} files in {self.save_dir.value}; check: warp-cut usd-check {usd}")
 
     def _show_target(self, gizmo: bool = True) -> None:
-        pose = self.live.target
+        pose = self._shown_target = self.live.target
         self._syncing = True
         try:
             self.tilt.value = round(pose.tilt_deg, 1)
@@ -206,14 +207,16 @@ class LiveViewer:
                  f"**|F|** {np.linalg.norm(s.force):.4f} N · cutting {'on' if s.cutting else 'off'} · "
                  f"{s.incisions} incisions, {s.cut_events} cut events · frame {s.frame}"]
         if s.realtime_factor is not None and s.realtime_factor < 0.95 and not s.paused:
-            lines.append(f"⚠ cannot keep up with real time: ×{s.realtime_factor:.2f}")
+            lines.append(f"**cannot keep up with real time**: ×{s.realtime_factor:.2f}")
         if s.paused:
-            lines.append("⏸ paused")
+            lines.append("**paused**")
         if s.error:
-            lines.append(f"⚠ {s.error} — reset or apply new parameters")
+            lines.append(f"**stopped**: {s.error} (reset, or apply new parameters)")
         return "  \n".join(lines)
 
     def _update_panel(self) -> None:
+        if self.live.target is not self._shown_target:  # moved by a command, not this page
+            self._show_target()
         self.status_md.content = self._status_text()
         if len(self._force) >= 2:
             t, f = np.array(self._force).T
