@@ -217,6 +217,11 @@ class LiveViewer:
     def _update_panel(self) -> None:
         if self.live.target is not self._shown_target:  # moved by a command, not this page
             self._show_target()
+        self._syncing = True
+        try:  # as above: a pause or cutting switch made by a command shows here
+            self.pause.value, self.cutting.value = self.live.paused, self.live.cutting
+        finally:
+            self._syncing = False
         self.status_md.content = self._status_text()
         if len(self._force) >= 2:
             t, f = np.array(self._force).T
