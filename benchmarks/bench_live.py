@@ -8,11 +8,13 @@ then cuts 3 cm along +x at 20 mm/s, then leaves. Measured over the 3 cm of cutti
 * ``engine``: the run stepped as fast as it goes, no page (``LiveCut.advance``):
   simulated / compute time, what real-time pacing can reach at best;
 * ``page``: the real-time threads of ``warp-cut live`` with its page served, no browser;
+  ``page, cutting off``: the same stroke with cutting off (the blade only presses the skin);
 * ``browser``: the same with headless Chromium showing the page (WebGL in SwiftShader, on the
   same two CPU cores as the simulation; skipped without /usr/bin/chromium and playwright).
 
 Per case: real-time factor (simulated / wall time; at most 1, the run is paced to the wall
-clock), compute factor (simulated / compute time of the simulation thread), frames the page
+clock), compute factor (simulated / compute time of the simulation thread), CPU factor
+(simulated / CPU time of that thread: about what a core of its own would give), frames the page
 sent per second (``view_fps``, at most 30), and with a browser the websocket messages it
 received and the frames it drew per second (requestAnimationFrame), and the machine's load
 average when the case ended (the machine's two cores may be shared with other work).
@@ -22,6 +24,7 @@ average when the case ended (the machine's two cores may be shared with other wo
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import sys
 import tempfile
@@ -50,7 +53,7 @@ def _cut_phase(live: LiveCut, counter=None, slow_counter=None) -> dict:
     wait_until_arrived(live, settle=0.05)
     slow0 = slow_counter() if slow_counter else None
     count0, s, t0 = counter() if counter else 0, live.status(), time.perf_counter()
-    s0, c0 = s.time, s.compute_s
+    s0, c0, u0 = s.time, s.compute_s, s.cpu_s
     live.set_target(targets["along"])
     wait_until_arrived(live)
     count1, s, t1 = counter() if counter else 0, live.status(), time.perf_counter()
@@ -58,7 +61,8 @@ def _cut_phase(live: LiveCut, counter=None, slow_counter=None) -> dict:
     live.set_target(targets["out"])
     wait_until_arrived(live)
     return {"sim_s": s.time - s0, "wall_s": t1 - t0, "compute_s": s.compute_s - c0,
-            "cut_events": s.cut_events, "count": count1 - count0, "slow": (slow0, slow1)}
+            "cpu_s": s.cpu_s - u0, "cut_events": s.cut_events, "count": count1 - count0,
+            "slow": (slow0, slow1)}
 
 
 def engine_case() -> dict:
@@ -69,7 +73,8 @@ def engine_case() -> dict:
 
 
 def _common(m: dict) -> dict:
-    return {"cut_sim_s": m["sim_s"], "cut_wall_s": m["wall_s"], "cut_events": m["cut_events"]}
+    return {"cpu_factor": m["sim_s"] / m["cpu_s"], "cut_sim_s": m["sim_s"], "cut_wall_s": m["wall_s"],
+            "cut_events": m["cut_events"]}
 
 
 _DRAWN = """(() => { window.__drawn = 0;
@@ -108,10 +113,11 @@ class _Browser:
         self._pw.stop()
 
 
-def page_case(with_browser: bool) -> dict:
+def page_case(with_browser: bool, cutting: bool = True) -> dict:
     from warp_cut.live.app import LiveApp
 
     live = LiveCut("straight_incision")
+    live.set_cutting(cutting)
     app = LiveApp(live, port=0)
     browser = None
     try:
@@ -121,7 +127,8 @@ def page_case(with_browser: bool) -> dict:
         app.start()
         m = _cut_phase(live, counter=lambda: app.viewer.view.frames_shown,
                        slow_counter=browser.counts if browser else None)
-        row = {"case": "browser" if browser else "page", "realtime_factor": m["sim_s"] / m["wall_s"],
+        case = ("browser" if browser else "page") + ("" if cutting else ", cutting off")
+        row = {"case": case, "realtime_factor": m["sim_s"] / m["wall_s"],
                "compute_factor": m["sim_s"] / m["compute_s"], **_common(m),
                "view_fps": m["count"] / m["wall_s"], "browser_ws_msgs_per_s": None, "browser_draw_fps": None}
         if browser:
@@ -137,21 +144,16 @@ def page_case(with_browser: bool) -> dict:
 
 
 def _has_browser() -> bool:
-    try:
-        import playwright.sync_api  # noqa: F401  (optional: only for the browser case)
-    except ImportError:
-        return False
-    return Path(CHROMIUM).is_file()
+    return importlib.util.find_spec("playwright") is not None and Path(CHROMIUM).is_file()
 
 
 def run(quick: bool = False, repeats: int = 2):
-    try:
-        import viser  # noqa: F401  (the live extra)
-    except ImportError:
+    if importlib.util.find_spec("viser") is None:
         print("  skipped: the live extra is not installed (pip install -e '.[live]')")
         return []
     rows = []
-    cases = [("engine", engine_case), ("page", lambda: page_case(False))]
+    cases = [("engine", engine_case), ("page", lambda: page_case(False)),
+             ("page, cutting off", lambda: page_case(False, cutting=False))]
     if _has_browser():
         cases.append(("browser", lambda: page_case(True)))
     for _ in range(1 if quick else repeats):

@@ -21,6 +21,7 @@ wp.config.quiet = True
 
 import bench_compile  # noqa: E402
 import bench_cut_latency  # noqa: E402
+import bench_live  # noqa: E402
 import bench_pareto  # noqa: E402
 import bench_pareto_incision  # noqa: E402
 import bench_realtime  # noqa: E402
@@ -36,7 +37,8 @@ def main(argv=None) -> int:
     parts = [("throughput", bench_throughput), ("pareto (hanging sheet)", bench_pareto),
              ("pareto (incision width curve)", bench_pareto_incision),
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
-             ("compile time", bench_compile), ("cut event latency", bench_cut_latency)]
+             ("compile time", bench_compile), ("cut event latency", bench_cut_latency),
+             ("live cutting (warp-cut live)", bench_live)]
     for name, module in parts:
         print(f"{name}:", flush=True)
         module.run(quick=quick)

@@ -86,7 +86,10 @@ class LiveStatus:
     """What the run is doing: time [s], real-time factors (simulated over wall time, and over
     compute time: how much faster it could go; None until measured), paused, cutting, error
     (a message, or None), the last recorded frame, incisions and cut events so far, the tool
-    force [N] (3,), simulated time given up when it could not keep up [s], and the build count."""
+    force [N] (3,), simulated time given up when it could not keep up [s], the build count, the
+    compute time of the simulation (stepping and recording) since the build [s], and the CPU
+    time of the threads that stepped it since the start [s] (unlike compute time, not inflated
+    when other programs share the cores)."""
 
     time: float
     realtime_factor: float | None
@@ -101,6 +104,7 @@ class LiveStatus:
     behind_s: float
     generation: int
     compute_s: float
+    cpu_s: float
 
 
 @dataclass
@@ -162,6 +166,7 @@ class LiveCut:
         self._view: ViewFrame | None = None
         self._view_seq = 0
         self._last_publish = -math.inf
+        self._cpu_time = 0.0
         self._run = self._build(self.params)
         self._publish()
 
@@ -323,6 +328,7 @@ class LiveCut:
         def command():
             self.paused = bool(on)
             self._after_pause()
+            self._publish(force=True)
         self._submit(command)
 
     def reset(self) -> None:
@@ -394,7 +400,7 @@ class LiveCut:
         run = self._run
         while n > 0:
             k = min(n, run.steps_per_frame - run.steps_in_frame)
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.thread_time()
             with self._lock:
                 trajectory = run.motion.trajectory()
             run.sim.step(k, tool=trajectory)
@@ -405,6 +411,7 @@ class LiveCut:
                 run.recording.record(run.sim)
                 run.steps_in_frame = 0
             run.recording.compute_time += time.perf_counter() - start
+            self._cpu_time += time.thread_time() - cpu
             self._meter.add(run.sim.time, run.recording.compute_time)
             n -= k
 
@@ -425,8 +432,7 @@ class LiveCut:
         self._after_pause()
         while not self._stop.is_set():
             self._run_commands()
-            if self.paused or self.error:
-                self._publish()
+            if self.paused or self.error:  # nothing moves: nothing to publish
                 self._stop.wait(0.01)
                 continue
             run = self._run
@@ -441,7 +447,7 @@ class LiveCut:
             except Exception as exc:  # a bug: report it and stop stepping, keep serving
                 traceback.print_exc()
                 self.error = f"internal error: {exc!r}"
-            self._publish()
+            self._publish(force=self.error is not None)
 
     def start(self) -> None:
         """Run in real time on a thread of its own until ``stop``."""
@@ -500,7 +506,7 @@ class LiveCut:
                               frame=run.recording.frame, incisions=len(cutter.incisions),
                               cut_events=cutter.totals["events"], force=np.array(sim.tool_force),
                               behind_s=self._clock.behind, generation=self.generation,
-                              compute_s=run.recording.compute_time)
+                              compute_s=run.recording.compute_time, cpu_s=self._cpu_time)
 
 
 def _number(value, name: str) -> float:

@@ -131,8 +131,8 @@ class LiveViewer:
                 return
             try:
                 action()
-            except InputError as exc:
-                self.notify("not accepted", str(exc), error=True)
+            except (InputError, OSError) as exc:  # a refused value, or a directory not writable
+                self.notify("not done", str(exc), error=True)
                 return
             if done:
                 self.notify(done, "")
@@ -145,7 +145,7 @@ class LiveViewer:
         try:
             self.live.set_target_axis(np.asarray(event.target.position), _rotation_z(event.target.wxyz))
         except InputError as exc:
-            self.notify("not accepted", str(exc), error=True)
+            self.notify("not done", str(exc), error=True)
         self._show_target(gizmo=False)
 
     def _apply(self) -> None:
