@@ -26,7 +26,7 @@ from warp_cut.live import LiveCut  # noqa: E402
 from warp_cut.live.app import LiveApp, PlayerApp  # noqa: E402
 from warp_cut.live.playback import RunPlayback  # noqa: E402
 from warp_cut.live.scene_view import CLASS_RGB  # noqa: E402
-from warp_cut.live.scripted import straight_cut  # noqa: E402
+from warp_cut.live.scripted import stroke_targets, wait_until_arrived  # noqa: E402
 from warp_cut.live.server import start_server  # noqa: E402
 from warp_cut.scene import load_scene  # noqa: E402
 from warp_cut.usd_export import axis_quaternion  # noqa: E402
@@ -62,7 +62,19 @@ def test_page_holds_the_cut_mesh_and_wound_colours():
     try:
         view = app.viewer.view
         faces_before = np.array(view.handles["surface"].faces)
-        straight_cut(live, 0.012)
+        targets = stroke_targets(live, 0.012)
+        live.set_target(targets["in"])
+        wait_until_arrived(live)
+        live.set_target(targets["along"])
+        held = []  # the triangle count the page holds, frame by frame while the blade cuts
+        while not live.arrived:
+            live.advance(live.steps_per_frame)
+            app.viewer.push()
+            held.append(len(view.handles["surface"].faces))
+        assert len(set(held)) >= 5  # it changed again and again as the cut proceeded
+        for move in (lambda: live.set_target(targets["out"]), live.return_to_start):
+            move()
+            wait_until_arrived(live)
         assert app.viewer.push()
         _, frame = live.view_frame()
         surface = view.handles["surface"]
@@ -105,6 +117,12 @@ def test_controls_drive_the_target_and_show_each_other():
         assert live.sim.gravity is None
         viewer.cutting.value = False
         assert not live.cutting
+        shown = []
+        viewer.notify = lambda title, body, error=False: shown.append((title, body, error))
+        viewer.er.value = 0.995  # past the scene's range (a typed value is not clamped)
+        viewer.apply.value = True
+        assert live.generation == 2  # refused: the run goes on as it was
+        assert shown and shown[-1][2] and "material.residual_strain" in shown[-1][1]
     finally:
         app.stop()
         live.close()
