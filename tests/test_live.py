@@ -248,7 +248,7 @@ def test_real_time_thread_paces_pauses_saves_and_stops(tmp_path):
     assert not [t for t in threading.enumerate() if t.name.startswith("warp-cut-live")]
 
 
-def test_instability_is_reported_and_the_thread_keeps_serving():
+def test_instability_is_reported_and_the_thread_keeps_serving(tmp_path):
     live = LiveCut("straight_incision", SMALL + ["solver.substeps=1", "material.damping=0",
                                                  "material.stiffness=100000"])
     try:
@@ -257,6 +257,9 @@ def test_instability_is_reported_and_the_thread_keeps_serving():
         while live.status().error is None and time.perf_counter() < deadline:
             time.sleep(0.05)
         assert "unstable" in live.status().error
+        with pytest.raises(InputError, match="nothing saved"):
+            live.save(tmp_path / "unstable")
+        assert not (tmp_path / "unstable").exists()
         live.set_parameters(stiffness=160.0, damping=3.0)  # the thread still takes commands
         assert live.status().error is None
     finally:

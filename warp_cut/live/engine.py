@@ -183,6 +183,7 @@ class LiveCut:
         start = ScalpelPose.from_tool(path.pose_at(0.0))
         motion = ToolMotion(start, length=scene.tool["length"], radius=scene.tool["radius"],
                             speed=self._speed, turn_rate=self._turn_rate, time=sim.time)
+        sim.check_tool_outside(motion.tool)  # the scalpel as posed here (its tilt kept >= 5 deg)
         run = _Run(scene=scene, sim=sim, steps_per_frame=steps_per_frame, motion=motion,
                    recording=LiveRecording(scene, sim, steps_per_frame, chunk_frames=self._chunk_frames),
                    frames=SimulatorFrames(self.generation + 1), start_pose=start,
@@ -359,6 +360,8 @@ class LiveCut:
         finished first). Returns the paths written."""
         def command():
             run = self._run
+            if self.error:  # as warp-cut run writes nothing for an unstable run
+                raise InputError(f"nothing saved: {self.error}; reset or apply new parameters first")
             if run.steps_in_frame:
                 self._step(run.steps_per_frame - run.steps_in_frame)
             extra = {"parameters": dataclasses.asdict(self.params), "overrides": self._overrides,

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, WarpCutError
 from ..usd_export import axis_quaternion
 from .engine import LiveCut
 from .scene_view import SceneView, mesh_spacing
@@ -131,7 +131,7 @@ class LiveViewer:
                 return
             try:
                 action()
-            except (InputError, OSError) as exc:  # a refused value, or a directory not writable
+            except (WarpCutError, OSError) as exc:  # a refused value, an unstable run, a directory not writable
                 self.notify("not done", str(exc), error=True)
                 return
             if done:
