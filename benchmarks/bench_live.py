@@ -86,7 +86,7 @@ class _Browser:
     reads its websocket in a worker; Playwright sees them) and the frames it draws."""
 
     def __init__(self, url: str, profile: str):
-        from playwright.sync_api import sync_playwright
+        from playwright.sync_api import sync_playwright  # optional: the browser case only
 
         self._pw = sync_playwright().start()
         self.context = self._pw.chromium.launch_persistent_context(
@@ -114,7 +114,7 @@ class _Browser:
 
 
 def page_case(with_browser: bool, cutting: bool = True) -> dict:
-    from warp_cut.live.app import LiveApp
+    from warp_cut.live.app import LiveApp  # needs viser (optional)
 
     live = LiveCut("straight_incision")
     live.set_cutting(cutting)

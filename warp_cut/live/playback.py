@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from pxr import Gf, Usd, UsdGeom
 
 from ..errors import InputError
 from ..usd_export import INCISION, TISSUE, TOOL, USD_SUFFIXES
@@ -66,8 +67,6 @@ class RunPlayback:
     """
 
     def __init__(self, path):
-        from pxr import Usd, UsdGeom
-
         self.path = find_usd(path)
         stage = Usd.Stage.Open(str(self.path))
         if stage is None:
@@ -93,8 +92,6 @@ class RunPlayback:
         return indices.reshape(-1, 3)
 
     def _tool(self, t: float):
-        from pxr import Gf, UsdGeom
-
         if not self.tool or self.tool.GetVisibilityAttr().Get(t) == UsdGeom.Tokens.invisible:
             return None
         height = self.tool.GetHeightAttr().Get(t)
