@@ -27,7 +27,7 @@ from warp_cut.live.app import LiveApp, PlayerApp  # noqa: E402
 from warp_cut.live.playback import RunPlayback  # noqa: E402
 from warp_cut.live.scene_view import CLASS_RGB  # noqa: E402
 from warp_cut.live.scripted import stroke_targets, wait_until_arrived  # noqa: E402
-from warp_cut.live.server import start_server  # noqa: E402
+from warp_cut.live.server import start_server, warn_if_exposed  # noqa: E402
 from warp_cut.scene import load_scene  # noqa: E402
 from warp_cut.usd_export import axis_quaternion  # noqa: E402
 
@@ -145,6 +145,14 @@ def test_taken_port_unknown_scene_and_bad_values_exit_2(busy_port, tmp_path, cap
     (tmp_path / "empty").mkdir()
     assert main(["view", str(tmp_path / "empty")]) == 2
     assert "no USD file" in capsys.readouterr().err
+
+
+def test_a_host_beyond_this_machine_is_warned_about(capsys):
+    assert not warn_if_exposed("127.0.0.1") and not warn_if_exposed("localhost")
+    assert not warn_if_exposed("::1") and not warn_if_exposed("127.0.0.2")
+    assert capsys.readouterr().err == ""
+    assert warn_if_exposed("0.0.0.0") and warn_if_exposed("192.0.2.7")
+    assert "warning: serving on 0.0.0.0" in capsys.readouterr().err
 
 
 def _serve(args, timeout=120.0):

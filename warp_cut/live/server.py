@@ -6,6 +6,7 @@ A port that is taken is an error (viser would silently move to the next one).
 
 from __future__ import annotations
 
+import ipaddress
 import signal
 import socket
 import sys
@@ -13,10 +14,28 @@ import threading
 
 from ..errors import InputError
 
-__all__ = ["start_server", "check_port", "server_url", "wait_for_interrupt", "import_viser", "LOOPBACK"]
+__all__ = ["start_server", "check_port", "server_url", "wait_for_interrupt", "import_viser",
+           "is_loopback", "warn_if_exposed"]
 
-LOOPBACK = ("127.0.0.1", "localhost", "::1")
-"""Host names that keep the server on this machine."""
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` keeps the server on this machine (localhost, 127.0.0.0/8, ::1)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def warn_if_exposed(host: str) -> bool:
+    """Print a warning on stderr if ``host`` is not a loopback address; returns whether it did."""
+    if is_loopback(host):
+        return False
+    print(f"warp-cut: warning: serving on {host}, reachable from other machines; the page "
+          "lets anyone who reaches it drive the simulation and write files here", file=sys.stderr)
+    return True
 
 
 def import_viser():
@@ -53,9 +72,7 @@ def start_server(host: str = "127.0.0.1", port: int = 0, *, label: str = "warp_c
     is not installed; warns on stderr when the host is not a loopback address."""
     viser = import_viser()
     check_port(host, port)
-    if host not in LOOPBACK:
-        print(f"warp-cut: warning: serving on {host}, reachable from other machines; the page "
-              "lets anyone who reaches it drive the simulation and write files here", file=sys.stderr)
+    warn_if_exposed(host)
     server = viser.ViserServer(host=host, port=port, label=label, verbose=False)
     if port and server.get_port() != port:  # taken between the check and the bind
         server.stop()
