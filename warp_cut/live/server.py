@@ -18,7 +18,6 @@ __all__ = ["start_server", "check_port", "server_url", "wait_for_interrupt", "im
            "is_loopback", "warn_if_exposed"]
 
 
-
 def is_loopback(host: str) -> bool:
     """Whether ``host`` keeps the server on this machine (localhost, 127.0.0.0/8, ::1)."""
     if host == "localhost":
