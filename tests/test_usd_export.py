@@ -320,3 +320,42 @@ def test_flatten_gives_one_file_with_the_same_animation(tmp_path):
         assert np.array_equal(np.array(pa), np.array(b.GetAttributeAtPath("/World/Tissue.points").Get(t)))
     _assert_valid(flat)
     assert main(["usd-flatten", str(tmp_path / "none.usdc"), str(flat)]) == 2
+
+
+class _FlushAt:
+    """Observer flushing the recorder at one frame and reading the stage on disk right then."""
+
+    def __init__(self, recorder, frame):
+        self.recorder, self.frame = recorder, frame
+        self.seen = None
+
+    def on_frame(self, sim, frame):
+        if frame == self.frame:
+            self.recorder.flush()
+            stage = Usd.Stage.Open(str(self.recorder.path))
+            mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Tissue"))
+            live = np.flatnonzero(sim.model.active)
+            self.seen = (stage.GetEndTimeCode(), np.array(mesh.GetPointsAttr().Get(frame)),
+                         sim.state.positions.numpy()[live].copy())
+
+    def finish(self, metrics):
+        pass
+
+
+def test_flush_mid_chunk_writes_the_frames_so_far_and_recording_goes_on(tmp_path):
+    scene = load_scene("skin_press", TINY + ["duration=0.3"])
+    path = tmp_path / "run" / "press.usdc"
+    rec = UsdRecorder(path, scene, chunk_frames=4)
+    ref = _Positions()
+    flush = _FlushAt(rec, 6)  # chunk 1 holds frames 4-6, the next chunk starts at 7
+    run_scene(scene, observers=[ref, rec, flush])
+    end, on_disk, expected = flush.seen
+    assert end == 6 and np.array_equal(on_disk, expected)
+    stage = Usd.Stage.Open(str(path))
+    assert stage.GetEndTimeCode() == scene.frame_count
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Tissue"))
+    for frame, _, x in ref.frames:  # every frame, on both sides of the early chunk end
+        assert np.array_equal(np.array(mesh.GetPointsAttr().Get(frame)), x)
+    starts = [a[0] for a in Usd.ClipsAPI(stage.GetPrimAtPath("/World")).GetClipActive()]
+    assert starts[:4] == [0, 4, 7, 11]
+    _assert_valid(path)

@@ -23,7 +23,8 @@ from .solvers import INTEGRATORS
 from .ticks import TickLog, frozen_gc
 
 __all__ = ["RunResult", "prepare_simulation", "run_scene", "run_to_directory", "record_frame",
-           "run_metrics", "write_outputs", "TIMESERIES_COLUMNS"]
+           "frame_values", "timeseries_columns", "run_metrics", "final_mesh", "write_outputs",
+           "TIMESERIES_COLUMNS"]
 
 TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy", "tick_max_ms"]
 """Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J], the
@@ -85,8 +86,7 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
     """
     model, sim, path, steps_per_frame = prepare_simulation(scene)
     frames = scene.frame_count
-    columns = TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
-    series = {c: np.zeros(frames + 1) for c in columns}
+    series = {c: np.zeros(frames + 1) for c in timeseries_columns(sim)}
     ticks = TickLog(frames * steps_per_frame, budget=sim.dt)
     bar = _progress(frames, quiet)
     start = time.perf_counter()
@@ -111,17 +111,28 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
     return RunResult(metrics, series, final_mesh(sim))
 
 
-def record_frame(series: dict, frame: int, sim: Simulator, ticks: TickLog | None = None) -> None:
-    """Fill row ``frame`` of the time series (``TIMESERIES_COLUMNS`` and, when cutting,
-    ``incision_width_m``) from the simulator's state after that frame; ``tick_max_ms`` from
-    ``ticks`` (the frame's ticks; 0 without)."""
-    series["t"][frame] = sim.time
-    series["tool_fx"][frame], series["tool_fy"][frame], series["tool_fz"][frame] = sim.tool_force
-    series["contacts"][frame] = sim.contact_count
-    series["kinetic_energy"][frame] = sim.kinetic_energy()
-    series["tick_max_ms"][frame] = ticks.frame_max_ms() if ticks is not None else 0.0
+def timeseries_columns(sim: Simulator) -> list[str]:
+    """Columns of timeseries.csv for this simulator (the incision width when it cuts)."""
+    return TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
+
+
+def frame_values(sim: Simulator, ticks: TickLog | None = None) -> dict:
+    """One row of timeseries.csv from the simulator's state now: column name -> value
+    (``tick_max_ms`` from ``ticks``, the frame's ticks; 0 without)."""
+    fx, fy, fz = sim.tool_force
+    row = {"t": sim.time, "tool_fx": fx, "tool_fy": fy, "tool_fz": fz, "contacts": sim.contact_count,
+           "kinetic_energy": sim.kinetic_energy(),
+           "tick_max_ms": ticks.frame_max_ms() if ticks is not None else 0.0}
     if sim.cutter is not None:
-        series["incision_width_m"][frame] = sim.cutter.incision_width(sim.positions)
+        row["incision_width_m"] = sim.cutter.incision_width(sim.positions)
+    return row
+
+
+def record_frame(series: dict, frame: int, sim: Simulator, ticks: TickLog | None = None) -> None:
+    """Fill row ``frame`` of the time series (``timeseries_columns``) from the simulator's
+    state after that frame (see ``frame_values``)."""
+    for name, value in frame_values(sim, ticks).items():
+        series[name][frame] = value
 
 
 def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
