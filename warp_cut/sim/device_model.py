@@ -30,6 +30,10 @@ def _columns(model):
     return [
         ("rest_positions", n, lambda idx: n.buffer("points")[idx], wp.vec3),
         ("node_mass", n, lambda idx: n.buffer("masses")[idx], wp.float32),
+        # the lumped area, derived from the lumped mass (mass = density x thickness x area), so
+        # it follows every edit that changes a mass
+        ("node_area", n, lambda idx: n.buffer("masses")[idx] / model.material.areal_density,
+         wp.float32),
         ("node_damping", n, lambda idx: n.buffer("damping")[idx], wp.float32),
         ("node_flags", n, lambda idx: _node_flags(model, idx), wp.int32),
         ("spring_indices", s, lambda idx: s.buffer("pairs")[idx], wp.int32),
@@ -51,7 +55,8 @@ def _to_warp(values: np.ndarray, dtype, device) -> wp.array:
 class DeviceModel:
     """Device arrays of a model (counts follow Newton's ``*_count`` naming; slots, dead included).
 
-    rest_positions (node capacity,) vec3 [m]; node_mass float32 [kg]; node_damping float32
+    rest_positions (node capacity,) vec3 [m]; node_mass float32 [kg]; node_area float32 [m^2]
+    (lumped area = mass / (density x thickness), for the foundation); node_damping float32
     [N s/m]; node_flags int32 (NODE_ACTIVE | NODE_PINNED); spring_indices (2 * spring capacity,)
     int32, -1 for dead slots; spring_rest_length [m] and spring_stiffness [N/m] float32;
     link_indices (2 * link capacity,) int32; link_force [N] and link_smoothing [m] float32.
@@ -61,6 +66,11 @@ class DeviceModel:
         self.device = device
         self.model = model
         self._allocate()
+
+    @property
+    def foundation_stiffness(self) -> float:
+        """k_f [N/m^3] of the model's support (0: none, the foundation is not compiled)."""
+        return self.model.foundation_stiffness
 
     def _allocate(self) -> None:
         model = self.model

@@ -2,7 +2,8 @@
 
 The solver contract (the Simulator relies on it):
 
-* ``Cls(device_model, gravity=None, residual_stress=True, collision=True)``;
+* ``Cls(device_model, gravity=None, residual_stress=True, collision=True)``; the foundation
+  is on when the model has one (``device_model.foundation_stiffness > 0``);
 * ``step(state_in, state_out, tool, h)`` advances one substep h [s]; ``state_in.forces`` is zero
   on entry and left zero;
 * ``clear_tool_stats()`` and the stats arrays ``tool_force`` (1,) vec3 [N], ``contact_count``
@@ -49,6 +50,9 @@ class SolverBase:
         self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
         self.residual_stress = bool(residual_stress)
         self.collision = bool(collision)
+        self.foundation_stiffness = float(model.foundation_stiffness)
+        """k_f [N/m^3] of the model's support; 0: the foundation is neither launched nor compiled."""
+        self.foundation = self.foundation_stiffness > 0.0
         self.replay = replay
         device = model.device
         self.device = device

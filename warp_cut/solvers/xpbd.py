@@ -27,8 +27,9 @@ class XPBDSolver(SolverBase):
 
     @classmethod
     def step_limit(cls, model, positions=None) -> StepLimit:
-        """The limit of the explicit part alone: residual links (infinite without links)."""
-        if not model.link_count:
+        """The limit of the explicit part alone: residual links and the foundation (infinite
+        without either)."""
+        if not model.link_count and model.foundation_stiffness <= 0:
             explicit = stable_time_step(model, positions)
             return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
         links_only = _LinksOnly(model)
@@ -56,9 +57,10 @@ class XPBDSolver(SolverBase):
             seq.add(residual_link_forces, m.link_count,
                     [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
         gravity = self.gravity if self.gravity is not None else wp.vec3(0.0)
-        seq.add(K.predict_kernel(self.gravity is not None), nt,
+        seq.add(K.predict_kernel(self.gravity is not None, self.foundation), nt,
                 [x_in, state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags,
-                 gravity, h, chunk, n, state_out.positions])
+                 gravity, m.rest_positions, m.node_area, self.foundation_stiffness, h, chunk, n,
+                 state_out.positions])
         indices, rest, stiffness, count = self.spring_arrays()
         seq.add(K.distance_constraints, self.threads(count),
                 [state_out.positions, indices, rest, stiffness, m.node_mass, m.node_flags,
@@ -71,7 +73,8 @@ class XPBDSolver(SolverBase):
 
 
 class _LinksOnly:
-    """A view of a model without its springs, for the explicit (link) part of the step limit."""
+    """A view of a model without its springs, for the explicit (link and foundation) part of
+    the step limit."""
 
     def __init__(self, model):
         self._model = model
