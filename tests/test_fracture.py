@@ -90,3 +90,12 @@ def test_simulator_relaxes_to_the_static_equilibrium():
     np.testing.assert_allclose(gap, ref_gap, rtol=1e-3)
     T, modulus = model.material.membrane_tension, 2 * 160 / np.sqrt(3)
     assert gap.max() < griffith_gap(0.0, 0.005, T, modulus)  # the close pinned border lowers it
+
+
+def test_cli_refuses_a_bad_scene_before_running(tmp_path):
+    from warp_cut.cli import main
+
+    out = tmp_path / "wound"
+    assert main(["experiment", "wound", "--scene", str(tmp_path / "missing.toml"), "--out", str(out),
+                 "--quiet"]) == 2
+    assert not out.exists()

@@ -31,9 +31,10 @@ __all__ = ["Scene", "TissueSection", "PhysicsSection", "SolverSection", "ToolSec
 DEFAULT_SCENE = "straight_incision"
 """Bundled scene run by ``warp-cut run`` without a scene argument."""
 
-DEFAULT_FOUNDATION_STIFFNESS = 1.0e5
+DEFAULT_FOUNDATION_STIFFNESS = 1.0e6
 """``material.foundation_stiffness`` k_f [N/m^3] when ``physics.foundation`` is on and none is given:
-about the Young's modulus of subcutaneous fat (~1-3 kPa) over a 1-2 cm layer."""
+a subcutaneous layer of Young's modulus ~5-10 kPa and 5-10 mm thickness (k_f ~ E / depth); the
+Table 1 skin patch then settles by rho t g / k_f = 22 um under gravity."""
 
 _SCHEMA: dict[str, set[str]] = {
     "": {"name", "duration", "fps", "device", "tissue", "material", "physics", "solver", "tool",
