@@ -2,8 +2,8 @@
 
 Per substep h:
 
-1. predict with the explicit forces f (residual links) and gravity:
-   ``x~ = x + h v + h^2 (f / m + g)``;
+1. predict with the explicit forces f (residual links, and the foundation
+   ``-k_f A (x - X)`` when a scene asks for it) and gravity: ``x~ = x + h v + h^2 (f / m + g)``;
 2. one Jacobi pass over the springs as distance constraints ``C = |x_j - x_i| - L0`` with
    compliance ``alpha = 1 / k``: ``dlambda = -C / (w~_i + w~_j + alpha / h^2)`` and
    ``dx_i = w_i dlambda grad_i C``, summed per node. The split weights ``w~ = n w`` (n: the
@@ -15,8 +15,8 @@ Per substep h:
    resting state (v = 0) is an equilibrium whatever D is, and a large D only slows motion.
 
 With lambda reset every substep (one iteration), the spring part is unconditionally stable;
-residual links are explicit forces (their stiffness F / eps bounds the step, see
-``warp_cut.stability``). At equilibrium the one-iteration pass is a spring of stiffness
+residual links and the foundation are explicit forces (their stiffnesses F / eps and k_f A bound
+the step, see ``warp_cut.sim.stability``). At equilibrium the one-iteration pass is a spring of stiffness
 ``k / (1 + k h^2 (n_i w_i + n_j w_j))``: XPBD converges to the sheet's stiffness as h -> 0.
 """
 
@@ -25,6 +25,7 @@ import warp as wp
 from .collision import push_out_near_tool
 from .diagnostics import report_runaway
 from .flags import is_free
+from .integrate import foundation_force
 from .springs import SPRING_MIN_LENGTH
 from .variants import specialised, variant_family
 
@@ -99,7 +100,7 @@ def distance_constraints(
 
 
 @variant_family("xpbd_predict")
-def _make_predict(gravity: bool):
+def _make_predict(gravity: bool, foundation: bool):
     def xpbd_predict(
         positions_in: wp.array(dtype=wp.vec3),
         velocities_in: wp.array(dtype=wp.vec3),
@@ -108,6 +109,9 @@ def _make_predict(gravity: bool):
         node_damping: wp.array(dtype=wp.float32),
         node_flags: wp.array(dtype=wp.int32),
         gravity_accel: wp.vec3,
+        rest_positions: wp.array(dtype=wp.vec3),
+        node_area: wp.array(dtype=wp.float32),
+        foundation_stiffness: float,
         h: float,
         chunk: int,
         count: int,
@@ -125,6 +129,8 @@ def _make_predict(gravity: bool):
                 f = forces[i]
                 if wp.static(gravity):
                     f = f + gravity_accel * m
+                if wp.static(foundation):
+                    f = f + foundation_force(x, rest_positions[i], node_area[i], foundation_stiffness)
                 positions_out[i] = x + velocities_in[i] * h + f * (h * h / m)
             forces[i] = wp.vec3(0.0)
             i += 1
@@ -178,11 +184,13 @@ def _make_finish(collision: bool):
     return xpbd_finish
 
 
-def predict_kernel(gravity: bool):
+def predict_kernel(gravity: bool, foundation: bool = False):
     """Step 1 (see the module doc). Arguments: positions_in, velocities_in, forces (cleared),
-    node_mass, node_damping (unused here), node_flags, gravity_accel [m/s^2], h, chunk, count,
-    positions_out (the prediction x~)."""
-    return specialised("xpbd_predict", _make_predict, gravity=bool(gravity))
+    node_mass, node_damping (unused here), node_flags, gravity_accel [m/s^2], rest_positions
+    [m], node_area [m^2], foundation_stiffness k_f [N/m^3], h, chunk, count, positions_out
+    (the prediction x~)."""
+    return specialised("xpbd_predict", _make_predict, gravity=bool(gravity),
+                       foundation=bool(foundation))
 
 
 def finish_kernel(collision: bool):

@@ -35,7 +35,7 @@ RULES = {
     "scene": {"errors", "mesh", "sim", "solvers", "cut"},
     "ticks": set(),
     "runner": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene", "ticks"},
-    "experiments": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene"},
+    "experiments": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene", "runner"},
     "batch": {"errors", "sim", "io", "scene", "runner"},
     "cli": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene", "runner",
             "experiments", "batch", "live"},

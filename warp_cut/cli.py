@@ -16,6 +16,7 @@ from .batch.report import plot_results
 from .batch.sweep import load_sweep
 from .errors import InputError, SimulationUnstable
 from .experiments import mean_abs_error_pct, run_experiment, write_report
+from .experiments import wound as fracture
 from .io.usd_check import check_usd, validate_usd
 from .io.usd_export import DEFAULT_CHUNK_FRAMES, flatten_usd
 from .live.app import LiveApp, PlayerApp, serve
@@ -95,6 +96,21 @@ def _cmd_experiment_collision(args) -> int:
             print(f"speed {speed:g} m/s: mean relative error of the first-contact time "
                   f"{mean_abs_error_pct(group, 'discrete'):.3g} % per step at {args.rate:g} Hz, "
                   f"{mean_abs_error_pct(group, 'ccd'):.3g} % continuous (paper: 0.05 %)")
+        for path in written:
+            print(f"  wrote {path}")
+    return EXIT_OK
+
+
+def _cmd_experiment_wound(args) -> int:
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise InputError(f"--out {args.out}: exists and is not a directory")
+    load_scene(args.scene)  # a bad scene is refused before the long part
+    comparisons = fracture.run_experiment(args.scene, quick=args.quick)
+    written = fracture.write_report(args.out, comparisons)
+    if not args.quiet:
+        for c in comparisons:
+            print(f"{c.label}: centre {c.centre_ratio():.3f} x closed form, max error "
+                  f"{100 * c.max_error():.1f} % over the middle 80 % ({c.setup})")
         for path in written:
             print(f"  wrote {path}")
     return EXIT_OK
@@ -225,6 +241,16 @@ def _add_experiment(sub) -> None:
                      help="simulation steps per second, the per-step test's rate (default 1000)")
     col.add_argument("--quiet", action="store_true", help="no summary")
     col.set_defaults(func=_cmd_experiment_collision)
+    wnd = exps.add_parser("wound", help="the opening of a cut in a prestressed sheet against linear "
+                                        "elastic fracture mechanics (docs/wound.md)")
+    wnd.add_argument("--out", default=os.path.join("out", "wound"),
+                     help="output directory (default: out/wound)")
+    wnd.add_argument("--scene", default="wound_gape",
+                     help="the scene whose straight cut is compared (default: wound_gape)")
+    wnd.add_argument("--quick", action="store_true",
+                     help="only the exact-slit checks (no run of the scene)")
+    wnd.add_argument("--quiet", action="store_true", help="no summary")
+    wnd.set_defaults(func=_cmd_experiment_wound)
 
 
 def _add_batch(sub) -> None:

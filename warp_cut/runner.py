@@ -24,11 +24,15 @@ from .ticks import TickLog, frozen_gc
 
 __all__ = ["RunResult", "prepare_simulation", "run_scene", "run_to_directory", "record_frame",
            "frame_values", "timeseries_columns", "run_metrics", "final_mesh", "write_outputs",
-           "TIMESERIES_COLUMNS"]
+           "TIMESERIES_COLUMNS", "PROFILE_COLUMNS"]
 
 TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy", "tick_max_ms"]
 """Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J], the
 longest tick (one step) of the frame [ms]."""
+
+PROFILE_COLUMNS = ["incision", "arc_length_m", "gap_m"]
+"""Columns of incision_profile.csv (``Cutter.gap_profile`` at the end of a run with cutting):
+incision index, arc length along it [m], gap between its lips there [m]."""
 
 
 @dataclass
@@ -39,6 +43,9 @@ class RunResult:
     columns: dict = field(default_factory=dict)
     final_mesh: dict | None = None
     """points (k, 3) [m], triangles (t, 3) and node_class (k,) of the live nodes at the end."""
+    profile: dict | None = None
+    """The incisions' opening at the end (``Cutter.gap_profile``, PROFILE_COLUMNS), or None
+    without cutting."""
 
 
 def prepare_simulation(scene: Scene):
@@ -108,7 +115,8 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
                           ticks=ticks if path is not None else None)
     for obs in observers:
         obs.finish(metrics)
-    return RunResult(metrics, series, final_mesh(sim))
+    profile = sim.cutter.gap_profile(sim.positions) if sim.cutter is not None else None
+    return RunResult(metrics, series, final_mesh(sim), profile)
 
 
 def timeseries_columns(sim: Simulator) -> list[str]:
@@ -176,7 +184,10 @@ def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
     if ticks is not None:
         metrics.update(ticks.metrics())
     if sim.cutter is not None:
-        metrics.update(sim.cutter.metrics(sim.positions))
+        x = sim.positions
+        metrics.update(sim.cutter.metrics(x))
+        gaps = sim.cutter.gap_profile(x)["gap_m"]
+        metrics["incision"]["max_gap_m"] = float(gaps.max()) if len(gaps) else None
         metrics["width_curve"] = width_curve_metrics(series["t"], series["incision_width_m"])
     return metrics
 
@@ -205,12 +216,18 @@ def final_mesh(sim) -> dict:
 
 
 def write_outputs(result: RunResult, out_dir) -> list[Path]:
-    """Write metrics.json, timeseries.csv and final_mesh.ply into out_dir (each atomically)."""
+    """Write metrics.json, timeseries.csv, final_mesh.ply and, with cutting,
+    incision_profile.csv into out_dir (each atomically)."""
     out = Path(out_dir)
     columns = list(result.columns)
     rows = zip(*(result.columns[c] for c in columns))
     write_csv(out / "timeseries.csv", columns, ([float(v) for v in row] for row in rows))
     written = [out / "timeseries.csv"]
+    if result.profile is not None:
+        p = result.profile
+        write_csv(out / "incision_profile.csv", PROFILE_COLUMNS,
+                  ([int(n), float(u), float(g)] for n, u, g in zip(*(p[c] for c in PROFILE_COLUMNS))))
+        written.append(out / "incision_profile.csv")
     if result.final_mesh is not None:
         write_ply(out / "final_mesh.ply", **result.final_mesh)
         written.append(out / "final_mesh.ply")
@@ -222,7 +239,8 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
                      usd_chunk: int = DEFAULT_CHUNK_FRAMES, quiet: bool = True
                      ) -> tuple[RunResult, list[Path]]:
     """Run ``scene`` and write everything a run writes into ``out_dir``: metrics.json,
-    timeseries.csv, final_mesh.ply, the pictures and (``usd``) the USD playback file.
+    timeseries.csv, final_mesh.ply, incision_profile.csv (with cutting), the pictures and
+    (``usd``) the USD playback file.
 
     What ``warp-cut run`` does, and what each batch worker does. On bad input or an unstable
     simulation nothing is left behind (the USD chunks included) and the error is raised.

@@ -112,7 +112,8 @@ class LiveRecording:
         final = FinalFrame()
         final.on_frame(sim, self.frame)
         final.finish(metrics)
-        written = write_outputs(RunResult(metrics, columns, final_mesh(sim)), out)
+        profile = sim.cutter.gap_profile(sim.positions) if sim.cutter is not None else None
+        written = write_outputs(RunResult(metrics, columns, final_mesh(sim), profile), out)
         written += write_run_plots(out, columns, final.picture, self.scene.name)
         return written + [usd]
 

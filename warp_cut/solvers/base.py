@@ -3,7 +3,8 @@
 The solver contract (the Simulator relies on it):
 
 * ``Cls(device_model, gravity=None, residual_stress=True, collision=True,
-  max_displacement=inf)``;
+  max_displacement=inf)``; the foundation is on when the model has one
+  (``device_model.foundation_stiffness > 0``);
 * ``step(state_in, state_out, tool, h)`` advances one substep h [s]; ``state_in.forces`` is zero
   on entry and left zero;
 * ``clear_tool_stats()`` and the stats arrays ``tool_force`` (1,) vec3 [N], ``contact_count``
@@ -63,6 +64,9 @@ class SolverBase:
         self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
         self.residual_stress = bool(residual_stress)
         self.collision = bool(collision)
+        self.foundation_stiffness = float(model.foundation_stiffness)
+        """k_f [N/m^3] of the model's support; 0: the foundation is neither launched nor compiled."""
+        self.foundation = self.foundation_stiffness > 0.0
         self.replay = replay
         device = model.device
         self.device = device
@@ -182,11 +186,12 @@ class SolverBase:
         """Launch dim for ``count`` items at ``self.chunk`` items per thread."""
         return -(-int(count) // self.chunk)
 
-    def guard_inputs(self) -> list:
+    def guard_inputs(self, rest: bool = True) -> list:
         """The stability guard's arguments, appended to each integrator's last node pass:
-        rest_positions, max_displacement_sq [m^2], first_bad."""
-        return [self.model.rest_positions, displacement_limit_sq(self.max_displacement),
-                self.first_bad]
+        rest_positions (unless ``rest`` is False: the semi-implicit node pass has them
+        already), max_displacement_sq [m^2], first_bad."""
+        limit = [displacement_limit_sq(self.max_displacement), self.first_bad]
+        return ([self.model.rest_positions] if rest else []) + limit
 
     def _set_tool(self, tool: Tool | None) -> None:
         if not self.collision or tool is self._last_tool:

@@ -84,14 +84,17 @@ class ImplicitEulerSolver(SolverBase):
                          k_iter, tol2, v["ap"], v["diagonal"]])
 
         stiffness_product(state_in.velocities, -1)  # also accumulates the diagonal
-        seq.add(K.cg_start, nt,
-                [state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags, h,
+        seq.add(K.cg_start_kernel(self.foundation), nt,
+                [state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags, x_in,
+                 m.rest_positions, m.node_area, self.foundation_stiffness, h,
                  chunk, n, v["ap"], v["diagonal"], v["x"], v["r"], v["z"], v["p"],
                  v["inv_diagonal"], self.cg])
+        curvature = K.cg_curvature_kernel(self.foundation)
         for k in range(self.cg_iterations):
             stiffness_product(v["p"], k)
-            seq.add(K.cg_curvature, nt, [v["p"], m.node_mass, m.node_damping, m.node_flags, h,
-                                         k, tol2, chunk, n, v["ap"], self.cg])
+            seq.add(curvature, nt, [v["p"], m.node_mass, m.node_damping, m.node_flags,
+                                    m.node_area, self.foundation_stiffness, h, k, tol2, chunk, n,
+                                    v["ap"], self.cg])
             seq.add(K.cg_descend, nt, [v["p"], v["inv_diagonal"], k, tol2, chunk, n, v["ap"],
                                        v["x"], v["r"], v["z"], self.cg])
             seq.add(K.cg_direction, nt, [v["z"], k, tol2, chunk, n, v["p"], self.cg])

@@ -27,13 +27,14 @@ class XPBDSolver(SolverBase):
 
     @classmethod
     def step_limit(cls, model, positions=None) -> StepLimit:
-        """The limit of the explicit part alone: residual links (infinite without links).
+        """The limit of the explicit part alone: residual links and the foundation (infinite
+        without either).
 
         XPBD damps after the solve, so the explicit prediction ``x + h v + h^2 f / m`` is not
         damped within its own step, and damping lowers the limit instead of raising it as in
         semi-implicit Euler: see ``xpbd_step_limits``.
         """
-        if not model.link_count:
+        if not model.link_count and model.foundation_stiffness <= 0:
             explicit = stable_time_step(model, positions)
             return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
         links_only = _LinksOnly(model)
@@ -70,9 +71,10 @@ class XPBDSolver(SolverBase):
             seq.add(residual_link_forces, m.link_count,
                     [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
         gravity = self.gravity if self.gravity is not None else wp.vec3(0.0)
-        seq.add(K.predict_kernel(self.gravity is not None), nt,
+        seq.add(K.predict_kernel(self.gravity is not None, self.foundation), nt,
                 [x_in, state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags,
-                 gravity, h, chunk, n, state_out.positions])
+                 gravity, m.rest_positions, m.node_area, self.foundation_stiffness, h, chunk, n,
+                 state_out.positions])
         indices, rest, stiffness, count = self.spring_arrays()
         seq.add(K.distance_constraints, self.threads(count),
                 [state_out.positions, indices, rest, stiffness, m.node_mass, m.node_flags,
@@ -106,7 +108,8 @@ def xpbd_step_limits(omega2: np.ndarray, damping_rate: np.ndarray) -> np.ndarray
 
 
 class _LinksOnly:
-    """A view of a model without its springs, for the explicit (link) part of the step limit."""
+    """A view of a model without its springs, for the explicit (link and foundation) part of
+    the step limit."""
 
     def __init__(self, model):
         self._model = model
