@@ -5,12 +5,16 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out
 
-.PHONY: install demo test lint bench fuzz clean
+SCENE  ?= straight_incision
+PORT   ?= 0
+APT    := $(if $(filter 0,$(shell id -u)),,sudo )apt-get
+
+.PHONY: install demo test test-browser lint live bench fuzz clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e ".[test,cluster,lint]"
+	$(PY) -m pip install --quiet -e ".[test,cluster,lint,live]"
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -22,7 +26,18 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check warp_cut kernels tests benchmarks
+	$(VENV)/bin/ruff check warp_cut kernels tests benchmarks examples
+
+# the browser test alone: Debian's Chromium (installed if missing), Playwright driving it;
+# the screenshot goes to docs/images/live_cut.png
+test-browser: $(STAMP)
+	command -v chromium >/dev/null || { $(APT) update -qq && DEBIAN_FRONTEND=noninteractive $(APT) install -y -qq chromium; }
+	WARP_CUT_SCREENSHOT=docs/images/live_cut.png $(PY) -m pytest -q -rs tests/test_live_browser.py
+
+# cut live in a browser: make live, or SCENE=skin_press PORT=8080 make live (PORT 0: any free port)
+live: $(STAMP)
+	$(PY) -m pip install --quiet -e ".[live]"
+	$(VENV)/bin/warp-cut live $(SCENE) --port $(PORT)
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[bench]"

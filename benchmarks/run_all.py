@@ -23,6 +23,8 @@ quiet_warp()
 
 import bench_compile  # noqa: E402
 import bench_cut_latency  # noqa: E402
+import bench_haptic  # noqa: E402
+import bench_live  # noqa: E402
 import bench_mesh_checks  # noqa: E402
 import bench_pareto  # noqa: E402
 import bench_pareto_incision  # noqa: E402
@@ -40,7 +42,8 @@ def main(argv=None) -> int:
              ("pareto (incision width curve)", bench_pareto_incision),
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
              ("compile time", bench_compile), ("cut event latency", bench_cut_latency),
-             ("mesh checks", bench_mesh_checks)]
+             ("mesh checks", bench_mesh_checks), ("haptic rate (1 ms ticks)", bench_haptic),
+             ("live cutting (warp-cut live)", bench_live)]
     for name, module in parts:
         print(f"{name}:", flush=True)
         module.run(quick=quick)
@@ -57,7 +60,8 @@ def write_summary(seconds: float | None = None) -> None:
     if seconds is not None:
         summary.append(f"Total benchmark time: {seconds:.0f} s.")
     summary.append("")
-    for md in ("throughput", "realtime", "pareto_hanging_sheet", "stable_step", "compile", "mesh_checks"):
+    for md in ("throughput", "realtime", "pareto_hanging_sheet", "stable_step", "compile", "mesh_checks",
+               "haptic"):
         summary.append((RESULTS / f"{md}.md").read_text())
     (RESULTS / "summary.md").write_text("\n".join(summary))
 

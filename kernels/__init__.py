@@ -8,10 +8,10 @@ build tiny arrays by hand on ``"cpu"`` and check one term alone.
 Conventions: positions [m], velocities [m/s], forces [N] as ``wp.vec3``
 (float32); spring and link endpoints as flat ``int32`` arrays ``[i0, j0, i1, j1, ...]``
 where a negative index marks a deleted slot that every kernel skips.
-Node flags are ``int32`` bit sets: ``NODE_ACTIVE`` and ``NODE_PINNED``.
+Node flags are ``int32`` bit sets: ``NODE_ACTIVE`` and ``NODE_PINNED``, tested in kernels
+with the functions of ``flags`` (``is_active``, ``is_pinned``, ``is_free``).
 """
 
-NODE_ACTIVE = 1
-"""Flag bit: the node slot holds a live node."""
-NODE_PINNED = 2
-"""Flag bit: the node is held fixed by a boundary condition."""
+from .flags import NODE_ACTIVE, NODE_PINNED
+
+__all__ = ["NODE_ACTIVE", "NODE_PINNED"]

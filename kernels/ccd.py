@@ -22,7 +22,7 @@ All arithmetic is float64: the roots are differences of nearly equal squares.
 
 import warp as wp
 
-from . import NODE_ACTIVE
+from .flags import is_active
 
 wp.set_module_options({"enable_backward": False})
 
@@ -35,7 +35,6 @@ TOOL_MIN_LENGTH = 1.0e-12
 BISECTION_STEPS = 64
 """Halvings of a bracket: 2^-64 of the interval, below float64 resolution."""
 
-_ACTIVE = wp.constant(NODE_ACTIVE)
 _NONE = wp.constant(wp.float64(NO_CONTACT))
 
 vec5d = wp.types.vector(length=5, dtype=wp.float64)
@@ -252,7 +251,7 @@ def swept_cylinder_first_contact(
     to NO_CONTACT first."""
     i = wp.tid()
     tau = _NONE
-    if (node_flags[i] & _ACTIVE) != 0:
+    if is_active(node_flags[i]):
         x = to_vec3d(positions[i])
         dx = to_vec3d(velocities[i]) * interval
         q0 = x - p0a

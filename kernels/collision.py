@@ -21,6 +21,8 @@ the node exerts, whatever D is).
 
 import warp as wp
 
+from .flags import is_active, is_pinned
+
 wp.set_module_options({"enable_backward": False})
 
 TOOL_MIN_LENGTH = 1.0e-12
@@ -102,14 +104,14 @@ def push_out_node(
 
     Inactive nodes are skipped; pinned nodes in contact are counted but not moved.
     """
-    if (flags & 1) == 0:
+    if not is_active(flags):
         return
     x = positions[i]
     if not cylinder_contains(x, p0, p1, radius):
         return
     wp.atomic_add(contact_count, 0, 1)
     wp.atomic_add(contact_position_sum, 0, x)
-    if (flags & 2) != 0:
+    if is_pinned(flags):
         return
     target = push_out_target(x, p0, p1, radius)
     dx = target - x

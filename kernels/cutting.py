@@ -9,6 +9,8 @@ append hits to a compact list with an atomic counter, so the host reads only the
 
 import warp as wp
 
+from .flags import is_active
+
 wp.set_module_options({"enable_backward": False})
 
 
@@ -81,7 +83,7 @@ def capsule_node_hits_among(
     a-b are appended to ``hits`` (capacity len(hits); hit_count (1,) may exceed it, then the
     caller retries with a larger list)."""
     i = candidates[wp.tid()]
-    if (node_flags[i] & 1) == 0:
+    if not is_active(node_flags[i]):
         return
     if point_segment_distance(positions[i], a, b) < radius:
         append_hit(hits, hit_count, i)
@@ -123,7 +125,7 @@ def segment_node_hits(
     appended to ``hits`` (where the cut looks for the skin around the tool and for what the
     swept capsule may touch)."""
     i = wp.tid()
-    if (node_flags[i] & 1) == 0:
+    if not is_active(node_flags[i]):
         return
     if point_segment_distance(positions[i], a, b) < radius:
         append_hit(hits, hit_count, i)

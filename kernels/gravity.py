@@ -2,6 +2,8 @@
 
 import warp as wp
 
+from .flags import is_active
+
 wp.set_module_options({"enable_backward": False})
 
 
@@ -14,6 +16,6 @@ def gravity_forces(
 ):
     """One thread per node. node_mass [kg] (node_count,); gravity [m/s^2]; forces [N]."""
     i = wp.tid()
-    if (node_flags[i] & 1) == 0:
+    if not is_active(node_flags[i]):
         return
     forces[i] = forces[i] + gravity * node_mass[i]

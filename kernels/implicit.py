@@ -1,6 +1,7 @@
 """Backward Euler by one linearised Newton step, solved with matrix-free preconditioned CG.
 
-With forces f(x) (springs, residual links, gravity), node masses M and damping D, the step
+With forces f(x) (springs, residual links, gravity, the foundation), node masses M and damping
+D, the step
 
     (M + h D - h^2 K) v' = M v + h f(x),    x' = x + h v'
 
@@ -12,9 +13,12 @@ approximation that keeps the matrix symmetric positive definite so CG applies. A
 link contributes its exact Jacobian ``F / r (I - d d^T / r^2)`` (r = sqrt(|d|^2 + eps^2)),
 which is positive semi-definite. The matrix acts on a vector p as
 
-    (A p)_i = (m_i + h D_i) p_i + h^2 sum_(i,j) B_ij (p_i - p_j)
+    (A p)_i = (m_i + h D_i + h^2 k_f A_i) p_i + h^2 sum_(i,j) B_ij (p_i - p_j)
 
-with rows of pinned and inactive nodes replaced by the identity (their v' is 0).
+with rows of pinned and inactive nodes replaced by the identity (their v' is 0). The foundation
+(a support of stiffness k_f A_i holding node i to its rest position X_i, force
+-k_f A_i (x_i - X_i)) adds h^2 k_f A_i to the diagonal; it is compiled only into the variants
+of the node kernels ``cg_start`` and ``cg_curvature`` that a scene with a foundation uses.
 
 CG runs entirely on the device with a fixed number of iterations, so a step is a fixed
 launch sequence that can be replayed as a graph: the scalars of iteration k live in
@@ -25,7 +29,11 @@ block diagonals' diagonal).
 
 import warp as wp
 
+from .diagnostics import report_runaway
+from .flags import is_free
+from .integrate import foundation_force
 from .springs import SPRING_MIN_LENGTH
+from .variants import specialised, variant_family
 
 wp.set_module_options({"enable_backward": False})
 
@@ -158,90 +166,126 @@ def cg_reset(cg: wp.array2d(dtype=wp.float64)):
     cg[k, 1] = wp.float64(0.0)
 
 
-@wp.kernel
-def cg_start(
-    velocities: wp.array(dtype=wp.vec3),
-    forces: wp.array(dtype=wp.vec3),
-    node_mass: wp.array(dtype=wp.float32),
-    node_damping: wp.array(dtype=wp.float32),
-    node_flags: wp.array(dtype=wp.int32),
-    h: float,
-    chunk: int,
-    count: int,
-    ap: wp.array(dtype=wp.vec3),
-    diagonal: wp.array(dtype=wp.vec3),
-    x: wp.array(dtype=wp.vec3),
-    r: wp.array(dtype=wp.vec3),
-    z: wp.array(dtype=wp.vec3),
-    p: wp.array(dtype=wp.vec3),
-    inv_diagonal: wp.array(dtype=wp.vec3),
-    cg: wp.array2d(dtype=wp.float64),
-):
+@variant_family("implicit_start")
+def _make_start(foundation: bool):
+    def cg_start(
+        velocities: wp.array(dtype=wp.vec3),
+        forces: wp.array(dtype=wp.vec3),
+        node_mass: wp.array(dtype=wp.float32),
+        node_damping: wp.array(dtype=wp.float32),
+        node_flags: wp.array(dtype=wp.int32),
+        positions: wp.array(dtype=wp.vec3),
+        rest_positions: wp.array(dtype=wp.vec3),
+        node_area: wp.array(dtype=wp.float32),
+        foundation_stiffness: float,
+        h: float,
+        chunk: int,
+        count: int,
+        ap: wp.array(dtype=wp.vec3),
+        diagonal: wp.array(dtype=wp.vec3),
+        x: wp.array(dtype=wp.vec3),
+        r: wp.array(dtype=wp.vec3),
+        z: wp.array(dtype=wp.vec3),
+        p: wp.array(dtype=wp.vec3),
+        inv_diagonal: wp.array(dtype=wp.vec3),
+        cg: wp.array2d(dtype=wp.float64),
+    ):
+        i = wp.tid() * chunk
+        end = wp.min(i + chunk, count)
+        while i < end:
+            flags = node_flags[i]
+            zero = wp.vec3(0.0)
+            if not is_free(flags):
+                x[i] = zero
+                r[i] = zero
+                z[i] = zero
+                p[i] = zero
+                diagonal[i] = wp.vec3(node_mass[i])
+                inv_diagonal[i] = wp.vec3(1.0)
+            else:
+                m = node_mass[i]
+                md = m + h * node_damping[i]
+                f = forces[i]
+                if wp.static(foundation):
+                    f = f + foundation_force(positions[i], rest_positions[i], node_area[i],
+                                             foundation_stiffness)
+                    md = md + h * h * foundation_stiffness * node_area[i]
+                v = velocities[i]
+                res = v * m + f * h - (ap[i] + v * md)
+                dg = diagonal[i] + wp.vec3(md)
+                inv = wp.vec3(1.0 / dg[0], 1.0 / dg[1], 1.0 / dg[2])
+                zi = wp.cw_mul(res, inv)
+                x[i] = v
+                r[i] = res
+                z[i] = zi
+                p[i] = zi
+                diagonal[i] = dg
+                inv_diagonal[i] = inv
+                wp.atomic_add(cg, 0, 0, wp.float64(wp.dot(res, zi)))
+            forces[i] = zero
+            ap[i] = zero
+            i += 1
+
+    return cg_start
+
+
+def cg_start_kernel(foundation: bool):
     """Start CG from x = v: r = M v + h f - A v (ap holds the stiffness part of A v),
     z = r / diag, p = z, cg[0, 0] = r.z. ``diagonal`` (the stiffness part on entry) becomes
     the whole diagonal of A [kg], ``inv_diagonal`` its inverse; clears ``forces`` and ``ap``.
-    Pinned and inactive nodes: x = r = z = p = 0."""
-    i = wp.tid() * chunk
-    end = wp.min(i + chunk, count)
-    while i < end:
-        flags = node_flags[i]
-        zero = wp.vec3(0.0)
-        if (flags & 1) == 0 or (flags & 2) != 0:
-            x[i] = zero
-            r[i] = zero
-            z[i] = zero
-            p[i] = zero
-            diagonal[i] = wp.vec3(node_mass[i])
-            inv_diagonal[i] = wp.vec3(1.0)
-        else:
-            m = node_mass[i]
-            md = m + h * node_damping[i]
-            v = velocities[i]
-            res = v * m + forces[i] * h - (ap[i] + v * md)
-            dg = diagonal[i] + wp.vec3(md)
-            inv = wp.vec3(1.0 / dg[0], 1.0 / dg[1], 1.0 / dg[2])
-            zi = wp.cw_mul(res, inv)
-            x[i] = v
-            r[i] = res
-            z[i] = zi
-            p[i] = zi
-            diagonal[i] = dg
-            inv_diagonal[i] = inv
-            wp.atomic_add(cg, 0, 0, wp.float64(wp.dot(res, zi)))
-        forces[i] = zero
-        ap[i] = zero
-        i += 1
+    Pinned and inactive nodes: x = r = z = p = 0. With ``foundation`` the support's force
+    -k_f A (x - X) is added to f and h^2 k_f A to the diagonal.
+
+    Arguments: velocities, forces, node_mass, node_damping, node_flags, positions [m],
+    rest_positions [m], node_area [m^2], foundation_stiffness [N/m^3], h, chunk, count, ap,
+    diagonal, x, r, z, p, inv_diagonal, cg.
+    """
+    return specialised("implicit_start", _make_start, foundation=bool(foundation))
 
 
-@wp.kernel
-def cg_curvature(
-    p: wp.array(dtype=wp.vec3),
-    node_mass: wp.array(dtype=wp.float32),
-    node_damping: wp.array(dtype=wp.float32),
-    node_flags: wp.array(dtype=wp.int32),
-    h: float,
-    k_iter: int,
-    tol2: float,
-    chunk: int,
-    count: int,
-    ap: wp.array(dtype=wp.vec3),
-    cg: wp.array2d(dtype=wp.float64),
-):
-    """ap += (M + h D) p (identity rows for pinned / inactive nodes); cg[k, 1] = p.Ap."""
-    if converged(cg, k_iter, tol2):
-        return
-    i = wp.tid() * chunk
-    end = wp.min(i + chunk, count)
-    while i < end:
-        flags = node_flags[i]
-        if (flags & 1) == 0 or (flags & 2) != 0:
-            ap[i] = wp.vec3(0.0)
-        else:
-            pi = p[i]
-            y = ap[i] + pi * (node_mass[i] + h * node_damping[i])
-            ap[i] = y
-            wp.atomic_add(cg, k_iter, 1, wp.float64(wp.dot(pi, y)))
-        i += 1
+@variant_family("implicit_curvature")
+def _make_curvature(foundation: bool):
+    def cg_curvature(
+        p: wp.array(dtype=wp.vec3),
+        node_mass: wp.array(dtype=wp.float32),
+        node_damping: wp.array(dtype=wp.float32),
+        node_flags: wp.array(dtype=wp.int32),
+        node_area: wp.array(dtype=wp.float32),
+        foundation_stiffness: float,
+        h: float,
+        k_iter: int,
+        tol2: float,
+        chunk: int,
+        count: int,
+        ap: wp.array(dtype=wp.vec3),
+        cg: wp.array2d(dtype=wp.float64),
+    ):
+        if converged(cg, k_iter, tol2):
+            return
+        i = wp.tid() * chunk
+        end = wp.min(i + chunk, count)
+        while i < end:
+            flags = node_flags[i]
+            if not is_free(flags):
+                ap[i] = wp.vec3(0.0)
+            else:
+                pi = p[i]
+                md = node_mass[i] + h * node_damping[i]
+                if wp.static(foundation):
+                    md = md + h * h * foundation_stiffness * node_area[i]
+                y = ap[i] + pi * md
+                ap[i] = y
+                wp.atomic_add(cg, k_iter, 1, wp.float64(wp.dot(pi, y)))
+            i += 1
+
+    return cg_curvature
+
+
+def cg_curvature_kernel(foundation: bool):
+    """ap += (M + h D) p (+ h^2 k_f A p with ``foundation``), identity rows for pinned /
+    inactive nodes; cg[k, 1] = p.Ap. Arguments: p, node_mass, node_damping, node_flags,
+    node_area [m^2], foundation_stiffness [N/m^3], h, k_iter, tol2, chunk, count, ap, cg."""
+    return specialised("implicit_curvature", _make_curvature, foundation=bool(foundation))
 
 
 @wp.kernel
@@ -310,20 +354,26 @@ def implicit_advance(
     count: int,
     positions_out: wp.array(dtype=wp.vec3),
     velocities_out: wp.array(dtype=wp.vec3),
+    rest_positions: wp.array(dtype=wp.vec3),
+    max_displacement_sq: float,
+    first_bad: wp.array(dtype=wp.int32),
 ):
-    """x' = x + h v' (free nodes); pinned and inactive nodes stay, with zero velocity."""
+    """x' = x + h v' (free nodes); pinned and inactive nodes stay, with zero velocity.
+    The new state is checked (``diagnostics.report_runaway``: rest_positions [m],
+    max_displacement_sq [m^2], first_bad (1,) int32 lowered to the first bad node)."""
     i = wp.tid() * chunk
     end = wp.min(i + chunk, count)
     while i < end:
         flags = node_flags[i]
         x = positions_in[i]
-        if (flags & 1) == 0 or (flags & 2) != 0:
+        if not is_free(flags):
             positions_out[i] = x
             velocities_out[i] = wp.vec3(0.0)
         else:
             v = velocity_new[i]
             positions_out[i] = x + h * v
             velocities_out[i] = v
+        report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
         i += 1
 
 

@@ -2,8 +2,8 @@
 
 Per substep h:
 
-1. predict with the explicit forces f (residual links) and gravity:
-   ``x~ = x + h v + h^2 (f / m + g)``;
+1. predict with the explicit forces f (residual links, and the foundation
+   ``-k_f A (x - X)`` when a scene asks for it) and gravity: ``x~ = x + h v + h^2 (f / m + g)``;
 2. one Jacobi pass over the springs as distance constraints ``C = |x_j - x_i| - L0`` with
    compliance ``alpha = 1 / k``: ``dlambda = -C / (w~_i + w~_j + alpha / h^2)`` and
    ``dx_i = w_i dlambda grad_i C``, summed per node. The split weights ``w~ = n w`` (n: the
@@ -15,14 +15,17 @@ Per substep h:
    resting state (v = 0) is an equilibrium whatever D is, and a large D only slows motion.
 
 With lambda reset every substep (one iteration), the spring part is unconditionally stable;
-residual links are explicit forces (their stiffness F / eps bounds the step, see
-``warp_cut.stability``). At equilibrium the one-iteration pass is a spring of stiffness
+residual links and the foundation are explicit forces (their stiffnesses F / eps and k_f A bound
+the step, see ``warp_cut.sim.stability``). At equilibrium the one-iteration pass is a spring of stiffness
 ``k / (1 + k h^2 (n_i w_i + n_j w_j))``: XPBD converges to the sheet's stiffness as h -> 0.
 """
 
 import warp as wp
 
 from .collision import push_out_near_tool
+from .diagnostics import report_runaway
+from .flags import is_free
+from .integrate import foundation_force
 from .springs import SPRING_MIN_LENGTH
 from .variants import specialised, variant_family
 
@@ -55,7 +58,7 @@ def spring_valence(
 
 @wp.func
 def inverse_mass(flags: int, mass: float):
-    if (flags & 1) == 0 or (flags & 2) != 0:
+    if not is_free(flags):
         return 0.0
     return 1.0 / mass
 
@@ -97,7 +100,7 @@ def distance_constraints(
 
 
 @variant_family("xpbd_predict")
-def _make_predict(gravity: bool):
+def _make_predict(gravity: bool, foundation: bool):
     def xpbd_predict(
         positions_in: wp.array(dtype=wp.vec3),
         velocities_in: wp.array(dtype=wp.vec3),
@@ -106,6 +109,9 @@ def _make_predict(gravity: bool):
         node_damping: wp.array(dtype=wp.float32),
         node_flags: wp.array(dtype=wp.int32),
         gravity_accel: wp.vec3,
+        rest_positions: wp.array(dtype=wp.vec3),
+        node_area: wp.array(dtype=wp.float32),
+        foundation_stiffness: float,
         h: float,
         chunk: int,
         count: int,
@@ -116,13 +122,15 @@ def _make_predict(gravity: bool):
         while i < end:
             x = positions_in[i]
             flags = node_flags[i]
-            if (flags & 1) == 0 or (flags & 2) != 0:
+            if not is_free(flags):
                 positions_out[i] = x
             else:
                 m = node_mass[i]
                 f = forces[i]
                 if wp.static(gravity):
                     f = f + gravity_accel * m
+                if wp.static(foundation):
+                    f = f + foundation_force(x, rest_positions[i], node_area[i], foundation_stiffness)
                 positions_out[i] = x + velocities_in[i] * h + f * (h * h / m)
             forces[i] = wp.vec3(0.0)
             i += 1
@@ -148,13 +156,16 @@ def _make_finish(collision: bool):
         tool_force: wp.array(dtype=wp.vec3),
         contact_count: wp.array(dtype=wp.int32),
         contact_position_sum: wp.array(dtype=wp.vec3),
+        rest_positions: wp.array(dtype=wp.vec3),
+        max_displacement_sq: float,
+        first_bad: wp.array(dtype=wp.int32),
     ):
         i = wp.tid() * chunk
         end = wp.min(i + chunk, count)
         while i < end:
             flags = node_flags[i]
             m = node_mass[i]
-            free = (flags & 1) != 0 and (flags & 2) == 0
+            free = is_free(flags)
             if free:
                 positions_out[i] = positions_out[i] + delta[i]
             if wp.static(collision):
@@ -166,22 +177,27 @@ def _make_finish(collision: bool):
                 velocities_out[i] = v * (m / (m + h * node_damping[i]))
             else:
                 velocities_out[i] = wp.vec3(0.0)
+            report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
             delta[i] = wp.vec3(0.0)
             i += 1
 
     return xpbd_finish
 
 
-def predict_kernel(gravity: bool):
+def predict_kernel(gravity: bool, foundation: bool = False):
     """Step 1 (see the module doc). Arguments: positions_in, velocities_in, forces (cleared),
-    node_mass, node_damping (unused here), node_flags, gravity_accel [m/s^2], h, chunk, count,
-    positions_out (the prediction x~)."""
-    return specialised("xpbd_predict", _make_predict, gravity=bool(gravity))
+    node_mass, node_damping (unused here), node_flags, gravity_accel [m/s^2], rest_positions
+    [m], node_area [m^2], foundation_stiffness k_f [N/m^3], h, chunk, count, positions_out
+    (the prediction x~)."""
+    return specialised("xpbd_predict", _make_predict, gravity=bool(gravity),
+                       foundation=bool(foundation))
 
 
 def finish_kernel(collision: bool):
     """Step 3. Arguments: positions_in (x at the start), node_mass, node_damping, node_flags,
     stiffness_sum (node_count,) [N/m] (sum of k of the node's springs, for the tool reaction),
     tool_pose (3,) vec3, h, chunk, count, delta (cleared), positions_out (x~ in, x' out),
-    velocities_out, tool_force, contact_count, contact_position_sum."""
+    velocities_out, tool_force, contact_count, contact_position_sum; rest_positions,
+    max_displacement_sq [m^2], first_bad (1,) int32: the stability guard, as in
+    ``integrate.integrate_kernel``."""
     return specialised("xpbd_finish", _make_finish, collision=bool(collision))

@@ -33,17 +33,20 @@ RULES = {
     "io": {"errors", "mesh", "sim", "cut"},
     "simulator": {"errors", "kernels", "mesh", "sim", "solvers", "cut"},
     "scene": {"errors", "mesh", "sim", "solvers", "cut"},
-    "runner": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene"},
-    "experiments": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene"},
+    "ticks": set(),
+    "runner": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene", "ticks"},
+    "experiments": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene", "runner"},
     "batch": {"errors", "sim", "io", "scene", "runner"},
     "cli": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene", "runner",
-            "experiments", "batch"},
+            "experiments", "batch", "live"},
     "verify": {"errors", "mesh", "sim", "cut"},
+    "live": {"errors", "sim", "cut", "io", "scene", "runner", "simulator", "ticks"},
     "__init__": {"errors", "sim", "solvers", "cut", "simulator"},
 }
 """Part -> the parts it may import (module-level imports; a part may always import itself)."""
 
-LAZY_IMPORTS = {("warp_cut.batch.pool", "distributed")}
+LAZY_IMPORTS = {("warp_cut.batch.pool", "distributed"), ("warp_cut.live.server", "viser"),
+                ("warp_cut.live.app", "warp_cut.live.viewer"), ("warp_cut.live.app", "warp_cut.live.player")}
 """(module, imported module) pairs allowed inside a function: optional dependencies only."""
 
 

@@ -2,13 +2,16 @@
 
 import csv
 import json
+import math
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from warp_cut.cli import main
-from warp_cut.runner import TIMESERIES_COLUMNS
+from warp_cut.runner import TIMESERIES_COLUMNS, run_scene
+from warp_cut.scene import load_scene
 
 FAST = ["--set", "duration=0.1", "--set", "tissue.size=[0.03,0.02]"]
 
@@ -30,14 +33,118 @@ def test_run_default_scene_writes_metrics_and_timeseries(tmp_path):
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary left
 
 
-def test_press_scene_makes_contact_and_force(tmp_path):
+_PLY_TYPES = {"char": "i1", "uchar": "u1", "short": "i2", "ushort": "u2", "int": "i4",
+              "uint": "u4", "float": "f4", "double": "f8"}
+
+
+def read_ply(path) -> dict:
+    """A binary little-endian PLY of one vertex element (scalar properties) and one face
+    element (a list of vertex indices), parsed by hand: {"vertex": structured array,
+    "face": (f, n) int}."""
+    data = path.read_bytes()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode("ascii").splitlines()
+    assert header[0] == "ply" and header[1] == "format binary_little_endian 1.0"
+    elements = []
+    for line in header[2:-1]:
+        words = line.split()
+        if words[0] == "element":
+            elements.append((words[1], int(words[2]), []))
+        elif words[0] == "property":
+            elements[-1][2].append(words[1:])
+    (vname, vcount, vprops), (fname, fcount, fprops) = elements
+    assert (vname, fname) == ("vertex", "face") and fprops[0][0] == "list"
+    vertex_dtype = np.dtype([(name, "<" + _PLY_TYPES[kind]) for kind, name in vprops])
+    vertex = np.frombuffer(data, vertex_dtype, vcount, end)
+    count_type, index_type = (np.dtype("<" + _PLY_TYPES[t]) for t in fprops[0][1:3])
+    offset, faces = end + vertex.nbytes, []
+    for _ in range(fcount):
+        n = int(np.frombuffer(data, count_type, 1, offset)[0])
+        offset += count_type.itemsize
+        faces.append(np.frombuffer(data, index_type, n, offset))
+        offset += n * index_type.itemsize
+    assert offset == len(data)
+    return {"vertex": vertex, "face": np.array(faces)}
+
+
+class _LastFrame:
+    """Observer keeping the simulator (the state at the end once the run is over)."""
+
+    def on_frame(self, sim, frame):
+        self.sim = sim
+
+    def finish(self, metrics):
+        pass
+
+
+def test_final_mesh_ply_is_the_model_at_the_end_of_the_run(tmp_path):
+    out = tmp_path / "run"
+    args = ["--set", "tissue.size=[0.03,0.02]", "--set", "duration=0.5"]  # the cut has begun
+    assert main(["run", "--out", str(out), "--quiet", "--no-usd"] + args) == 0
+    ply = read_ply(out / "final_mesh.ply")
+    # the same run in this process (runs are deterministic on the CPU), kept to its end
+    last = _LastFrame()
+    run_scene(load_scene(None, [a for a in args if a != "--set"]), observers=[last])
+    model, x = last.sim.model, last.sim.positions
+    live = np.flatnonzero(model.active)
+    assert len(live) < model.node_count  # the cut deleted nodes: the numbering is compacted
+    vertex = ply["vertex"]
+    assert len(vertex) == len(live)
+    xyz = np.column_stack([vertex["x"], vertex["y"], vertex["z"]])
+    np.testing.assert_array_equal(xyz, x[live].astype(np.float32))
+    np.testing.assert_array_equal(vertex["node_class"], model.node_class[live])
+    assert len(np.unique(vertex["node_class"])) > 1  # classes set by the cut
+    # faces: the live triangles, each node replaced by its rank among the live nodes
+    triangles = model.triangles
+    assert np.all(model.active[triangles])
+    np.testing.assert_array_equal(ply["face"], np.searchsorted(live, triangles))
+
+
+def first_touch(points, tip, velocity, axis, radius, length):
+    """Earliest time [s] a cylinder (tip at ``tip`` + velocity t, unit ``axis``, radius,
+    length) contains one of the still ``points`` (n, 3), by hand: relative to the tool a
+    point moves along d = -velocity; its axial coordinate s(t) must lie in [0, length]
+    (linear in t) and its squared distance to the axis, a quadratic, stay below r^2."""
+    q0 = np.asarray(points, float) - tip
+    d = -np.asarray(velocity, float)
+    s0, ds = q0 @ axis, d @ axis
+    w0, w1 = q0 - np.outer(s0, axis), d - ds * axis
+    a, b, c = w1 @ w1, 2 * w0 @ w1, np.einsum("ij,ij->i", w0, w0) - radius**2
+    disc = b * b - 4 * a * c
+    ok = disc > 0
+    root = np.sqrt(np.where(ok, disc, 0.0))
+    t_in, t_out = (-b - root) / (2 * a), (-b + root) / (2 * a)
+    # s(t) = s0 + ds t within [0, length]
+    lo, hi = np.sort(np.stack([-s0 / ds, (length - s0) / ds]), axis=0)
+    start, end = np.maximum(t_in, lo), np.minimum(t_out, hi)
+    ok &= end > start
+    return float(np.min(np.maximum(start[ok], 0.0)))
+
+
+def test_press_scene_makes_contact_at_the_closed_form_time(tmp_path):
+    # gravity off: the sheet lies still at z = 0 until the tool reaches it, so the first
+    # contact is the closed-form meeting of the descending cylinder with the rest nodes
     out = tmp_path / "press"
-    assert main(["run", "skin_press", "--out", str(out), "--quiet", "--set", "duration=0.5"]) == 0
+    assert main(["run", "skin_press", "--out", str(out), "--quiet", "--no-usd", "--set",
+                 "duration=0.5", "--set", "physics.gravity=false"]) == 0
     m = json.loads((out / "metrics.json").read_text())
-    # the tip moves from z = 5 mm to z = -4 mm over 0.5 s; it reaches the sheet (which sags
-    # slightly under gravity) shortly after 0.5 * 5/9 s
-    assert 0.25 < m["first_contact_time_s"] < 0.35
-    assert m["max_tool_force_n"] > 0.01
+    scene = load_scene("skin_press")
+    (t0, t1), path = (0.0, 0.5), scene.tool_path()
+    p0, p1 = (np.asarray(p) for p in path.endpoints_at(t0))
+    velocity = (np.asarray(path.endpoints_at(t1)[0]) - p0) / (t1 - t0)
+    axis = (p1 - p0) / np.linalg.norm(p1 - p0)
+    points = scene.build_model().points.astype(np.float32).astype(np.float64)
+    t_touch = first_touch(points, p0, velocity, axis, scene.tool.radius, np.linalg.norm(p1 - p0))
+    assert 0.2 < t_touch < 0.3  # the rim, 0.87 mm below the tip at 30 degrees, meets the sheet
+    # continuous detection: that time, to the float32 coordinates (~1e-9 m at 18 mm/s)
+    assert m["first_contact_time_exact_s"] == pytest.approx(t_touch, abs=1e-7)
+    # the per-step test: at the end of the step that holds it
+    assert m["first_contact_time_s"] == pytest.approx(math.ceil(t_touch / m["dt"]) * m["dt"], abs=1e-9)
+    rows = list(csv.DictReader((out / "timeseries.csv").open()))
+    force = np.array([[float(r[f"tool_f{c}"]) for c in "xyz"] for r in rows])
+    t = np.array([float(r["t"]) for r in rows])
+    assert np.all(force[t < t_touch] == 0) and np.all(np.linalg.norm(force[t > t_touch + 0.02], axis=1) > 0)
+    assert m["max_tool_force_n"] >= np.linalg.norm(force, axis=1).max() > 0
 
 
 def test_bad_input_exit_2_and_nothing_written(tmp_path, capsys):

@@ -2,9 +2,11 @@
 
 import numpy as np
 import pytest
+import warp as wp
 from conftest import DEVICE, chain_model
 
 from warp_cut import Simulator
+from warp_cut.kernels.gravity import gravity_forces
 
 
 @pytest.mark.parametrize("n_free", [1, 5, 12])
@@ -21,10 +23,6 @@ def test_hanging_chain_static_sag(n_free):
 
 
 def test_gravity_skips_inactive_and_scales_with_mass():
-    import warp as wp
-
-    from warp_cut.kernels.gravity import gravity_forces
-
     mass = wp.array(np.array([1.0, 2.0, 3.0], np.float32), dtype=wp.float32, device=DEVICE)
     flags = wp.array(np.array([1, 0, 3], np.int32), dtype=wp.int32, device=DEVICE)
     f = wp.zeros(3, dtype=wp.vec3, device=DEVICE)

@@ -19,7 +19,11 @@ def test_patch_is_a_valid_well_shaped_mesh(w, h, spacing):
     model = TissueModel.from_triangles(pts, tri)
     report = check_mesh(pts, tri, model.springs, reference_normal=[0, 0, 1], masses=model.masses)
     assert report.valid, report.problems
-    assert triangle_min_angles(pts, tri).min() > 25.0  # border triangles ~30 deg, rounding of the rows
+    # the border triangles' smallest angle is atan(dx / (2 dy)), 30 deg for dx = 2 dy / sqrt(3);
+    # the column count is nx = round(x), x = W sqrt(3) / (2 dy) >= 3.6 (spacing <= W / 4 and
+    # H / 4, the row count rounded too), so dx / dy >= (2 / sqrt(3)) x / (x + 1/2) and the
+    # angle >= atan(0.506) = 26.8 deg (interior triangles stay above 50 deg)
+    assert triangle_min_angles(pts, tri).min() > 25.0
     e1, e2 = pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]
     area = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1).sum()
     assert area == pytest.approx(w * h, rel=1e-9)

@@ -19,8 +19,8 @@ def test_run_writes_preview_and_force_plots(tmp_path):
                  "--set", "tissue.size=[0.02,0.02]"]) == 0
     for name in ("preview.png", "tool_force.png"):
         img = imread(out / name)
-        assert img.shape[0] > 300 and img.shape[1] > 400
-        assert img[:, :, :3].std() > 0.05  # not a blank page
+        assert img.shape[0] > 300 and img.shape[1] > 400  # a figure (6.4 x 4.8 in at 120 dpi or more)
+        assert img[:, :, :3].std() > 0.05  # not a blank page (std 0); drawn lines and text give ~0.1+
     assert not (out / "width.png").exists()  # no incision width column without a cut
     preview = imread(out / "preview.png")
     assert _has_color(preview, NODE_CLASS_COLORS[NodeClass.NORMAL])

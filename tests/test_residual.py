@@ -1,10 +1,11 @@
 """kernels/residual.py: residual-stress link magnitude sigma_r * A, direction, and the d -> 0 limit."""
 
 import numpy as np
+import pytest
 import warp as wp
 from conftest import DEVICE
 
-from warp_cut import Material, TissueModel
+from warp_cut import InputError, Material, TissueModel
 from warp_cut.kernels.residual import residual_link_forces
 
 
@@ -66,9 +67,5 @@ def test_area_override_and_validation():
     model = TissueModel.from_arrays([[0, 0, 0], [1, 0, 0]], [], 1.0)
     model.add_residual_links([[0, 1]], [0.5], area=3e-6)
     assert np.isclose(model.link_force[0], model.material.residual_stress * 3e-6)
-    import pytest
-
-    from warp_cut import InputError
-
     with pytest.raises(InputError):
         model.add_residual_links([[0, 5]], [0.5])

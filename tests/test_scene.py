@@ -2,8 +2,10 @@
 
 import numpy as np
 import pytest
+import trimesh
 
 from warp_cut import SceneError, ToolStartsInside
+from warp_cut.runner import prepare_simulation
 from warp_cut.scene import apply_overrides, bundled_scene_path, load_scene, parse_scene
 
 
@@ -89,8 +91,6 @@ def test_pinned_box_and_indices():
 
 
 def test_mesh_path_is_relative_to_scene_file(tmp_path):
-    import trimesh
-
     trimesh.creation.box().export(tmp_path / "box.stl")
     data = base()
     data["tissue"] = {"kind": "mesh", "path": "box.stl", "pinned": "none"}
@@ -112,8 +112,6 @@ def test_bundled_default_scene_loads():
 
 
 def test_tool_inside_at_start_is_rejected():
-    from warp_cut.runner import prepare_simulation
-
     data = base()
     data["tool"]["keyframes"][0]["p0"] = [0, 0, -0.002]
     with pytest.raises(ToolStartsInside):

@@ -1,5 +1,6 @@
-"""warp_cut/solver.py: a scene pays only for the physics it enables (modules neither launched
-nor compiled), checked in a fresh interpreter for every integrator; recorded and replayed
+"""warp_cut/solvers: a scene pays only for the physics it enables (modules neither launched
+nor compiled: gravity, the tool, residual links, the foundation), checked in a fresh interpreter
+for every integrator; recorded and replayed
 launches give the same states as plain launches."""
 
 import json
@@ -17,12 +18,13 @@ SCRIPT = r"""
 import json, sys
 from warp_cut.sim.warp_config import quiet_warp
 quiet_warp()
-from warp_cut import Simulator, TissueModel, Tool
+from warp_cut import Material, Simulator, TissueModel, Tool
 from warp._src.context import user_modules
 integrator = sys.argv[1]
-gravity, collision, residual = (a == "1" for a in sys.argv[2:5])
-device = sys.argv[5]
-model = TissueModel.from_patch((0.01, 0.01), 0.002)
+gravity, collision, residual, foundation = (a == "1" for a in sys.argv[2:6])
+device = sys.argv[6]
+model = TissueModel.from_patch((0.01, 0.01), 0.002,
+                               material=Material(foundation_stiffness=1e5 if foundation else 0.0))
 model.add_residual_links([[0, 1]], [0.002])
 sim = Simulator(model, integrator=integrator, gravity=(0, 0, -9.81) if gravity else None,
                 collision=collision, residual_stress=residual, device=device)
@@ -31,19 +33,20 @@ print(json.dumps([name for name, mod in user_modules.items()
                   if name.startswith("warp_cut.kernels") and mod.execs]))
 """
 
-PHYSICS = ("gravity", "collision", "residual")
+PHYSICS = ("gravity", "collision", "residual", "foundation")
 
 
-def loaded(integrator, gravity, collision, residual):
+def loaded(integrator, gravity, collision, residual, foundation):
     out = subprocess.run([sys.executable, "-c", SCRIPT, integrator, str(int(gravity)),
-                          str(int(collision)), str(int(residual)), DEVICE],
+                          str(int(collision)), str(int(residual)), str(int(foundation)), DEVICE],
                          capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 @pytest.mark.parametrize("integrator", sorted(INTEGRATORS))
 def test_only_enabled_physics_is_compiled(integrator):
-    for enabled in ((False, False, False), (True, True, True)):
+    for enabled in ((False, False, False, False), (True, True, True, True),
+                    (False, False, False, True)):
         names = loaded(integrator, *enabled)
         assert any("springs" in n or "implicit" in n or "xpbd" in n for n in names), names
         for physics, on in zip(PHYSICS, enabled):

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from conftest import DEVICE, chain_model
 
-from warp_cut import SimulationUnstable, Simulator, TissueModel, stable_time_step
+from warp_cut import Material, SimulationUnstable, Simulator, TissueModel, stable_time_step
 from warp_cut.sim.stability import spring_geometric_factor
+from warp_cut.solvers import INTEGRATORS
 
 
 def free_stiffness_matrix(model):
@@ -68,6 +69,8 @@ def test_undamped_chain_at_095_of_computed_limit_stays_bounded():
     model = chain_model(8, mass=0.01, stiffness=100.0)
     h = 0.95 * stable_time_step(model).step
     amp = energy_bounded_run(model, h, 20000)
+    # bounded: within 20 x the 1 mm start (an unstable mode grows exponentially and is caught,
+    # next test); the displacement itself swings with the modes' phases, no closer bound
     assert np.all(np.isfinite(amp)) and amp.max() < 0.02
 
 
@@ -89,7 +92,7 @@ def test_damped_limit_is_safe_and_larger():
     assert lim.step > lim.undamped_step
     assert lim.step <= exact_limit(model, D / m) * (1 + 1e-12)
     amp = energy_bounded_run(model, 0.95 * lim.step, 5000)
-    assert amp.max() < 0.01
+    assert amp.max() < 0.01  # bounded (10 x the start); it decays, being damped
 
 
 def test_auto_substeps_respect_the_limit():
@@ -123,8 +126,6 @@ def test_damped_per_node_limit_is_stable_with_uneven_masses(seed):
     """Light and heavy nodes mixed (as lip nodes after a cut): 0.95 x the estimate is stable
     by the eigenvalues of the iteration itself."""
     rng = np.random.default_rng(seed)
-    from warp_cut import Material
-
     n = 7
     pts = np.column_stack([np.arange(n) * 0.1, np.zeros(n), np.zeros(n)])
     masses = 10.0 ** rng.uniform(-6, -2, n)
@@ -133,3 +134,71 @@ def test_damped_per_node_limit_is_stable_with_uneven_masses(seed):
                                     damping=3.0, material=Material(damping=3.0))
     h = 0.95 * stable_time_step(model).step
     assert iteration_spectral_radius(model, h) <= 1.0 + 1e-9
+
+
+# ------------------------------------------------------------------ XPBD's explicit part
+def linked_chain(masses, damping, F=0.05, eps=1e-3):
+    """Node 0 pinned, the others free, all at the origin, each joined to the next by a
+    residual link only (no springs): at distance 0 a link is an isotropic spring F / eps."""
+    n = len(masses)
+    model = TissueModel.from_arrays(np.zeros((n, 3)), np.zeros((0, 2), int), masses, pinned=[0],
+                                    damping=damping)
+    model.add_residual_links(np.column_stack([np.arange(n - 1), np.arange(1, n)]),
+                             np.full(n - 1, 0.002), area=F / model.material.residual_stress,
+                             smoothing=eps)
+    return model
+
+
+def xpbd_spectral_radius(model, h, F=0.05, eps=1e-3):
+    """Spectral radius of one XPBD substep of the linked chain, linearised at rest (one
+    coordinate per node, the links being isotropic): x' = x + h v - h^2 M^-1 K x, then
+    h v' = A (x' - x) with A = (1 + h D / m)^-1 (damping after the solve)."""
+    n = model.node_count
+    K = np.zeros((n, n))
+    for i, j in model.links:
+        K[np.ix_([i, j], [i, j])] += (F / eps) * np.array([[1, -1], [-1, 1]])
+    free = ~model.pinned
+    K, m, D = K[np.ix_(free, free)], model.masses[free], model.damping[free]
+    A = np.diag(1.0 / (1.0 + h * D / m))
+    P = np.eye(len(m)) - h * h * K / m[:, None]
+    step = np.block([[P, np.eye(len(m))], [A @ (P - np.eye(len(m))), A]])
+    return np.abs(np.linalg.eigvals(step)).max()
+
+
+@pytest.mark.parametrize("D", [0.0, 1e-3, 1.0])
+def test_xpbd_limit_of_one_link_is_exact(D):
+    # one free node on a pinned one: a single mode, the limit is exact (damping lowers it
+    # from 2 / omega toward sqrt(2) / omega)
+    model = linked_chain([1e-3, 1e-3], D)
+    limit = INTEGRATORS["xpbd"].step_limit(model).step
+    omega = math.sqrt(0.05 / 1e-3 / 1e-3)
+    assert math.sqrt(2) / omega <= limit <= 2 / omega * (1 + 1e-12)
+    if D == 0:
+        assert limit == pytest.approx(2 / omega, rel=1e-12)
+    assert xpbd_spectral_radius(model, 0.999 * limit) <= 1.0 + 1e-9
+    assert xpbd_spectral_radius(model, 1.001 * limit) > 1.0 + 1e-6
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_xpbd_limit_is_stable_with_uneven_masses_and_damping(seed):
+    rng = np.random.default_rng(seed)
+    model = linked_chain(10.0 ** rng.uniform(-6, -2, 7), rng.uniform(0, 3, 7))
+    limit = INTEGRATORS["xpbd"].step_limit(model).step
+    assert xpbd_spectral_radius(model, limit) <= 1.0 + 1e-9
+
+
+@pytest.mark.parametrize("scale, grows", [(0.95, False), (1.05, True)])
+def test_xpbd_run_on_either_side_of_its_limit(scale, grows):
+    # heavily damped (D / m = 3000 1/s), where semi-implicit Euler's damped limit would allow
+    # a step 18 x too long: past the limit the node ends in a period-2 cycle (the link's
+    # force saturates at F once the distance passes eps), ~500 x the start
+    m, D, F, eps = 1e-3, 3.0, 0.05, 1e-3
+    model = linked_chain([m, m], D, F, eps)
+    h = scale * INTEGRATORS["xpbd"].step_limit(model).step
+    sim = Simulator(model, dt=h, substeps=1, gravity=None, integrator="xpbd", device=DEVICE)
+    x0 = np.zeros((2, 3))
+    x0[1, 0] = 1e-6  # << eps: the linear regime
+    sim.set_state(positions=x0)
+    sim.step(200)
+    drift = np.abs(sim.positions[1]).max()
+    assert (drift > 100 * 1e-6) if grows else (drift < 1e-6)

@@ -190,10 +190,17 @@ def test_bundled_angle_sweep_meets_the_skin_at_2_s_at_every_angle():
             assert lowest[0] == pytest.approx(0.0, abs=1e-9)
 
 
-def test_bundled_residual_strain_sweep_scenes_are_valid():
-    sweep = load_sweep("residual_strain_sweep")
-    assert sweep.parameters == ["material.residual_strain"] and len(sweep.scenarios) >= 5
+@pytest.mark.parametrize("name, model", [("residual_strain_sweep", "links"),
+                                         ("residual_strain_sweep_prestress", "prestress")])
+def test_bundled_residual_strain_sweep_scenes_are_valid(name, model):
+    sweep = load_sweep(name)
+    grid = tomllib.loads(sweep.path.read_text())["grid"]  # the file, read without the parser
+    assert sweep.parameters == list(grid) == ["material.residual_strain"]
+    assert [s.params["material.residual_strain"] for s in sweep.scenarios] == grid["material.residual_strain"]
     for scenario in sweep.scenarios:
         scene = parse_scene(apply_overrides(sweep.base_data, sweep.overrides(scenario),
                                             sweep.base_path), sweep.base_path)
         assert scene.material.residual_strain == scenario.params["material.residual_strain"]
+        assert scene.material.residual_stress_model == model
+    if model == "prestress":
+        scene.build_model()  # the largest strain still leaves every rest length positive

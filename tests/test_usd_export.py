@@ -165,21 +165,56 @@ def test_topology_change_and_classes_are_authored_when_they_change(tmp_path):
     _assert_valid(path)
 
 
+class _Topology:
+    """Observer keeping each frame's live nodes, their positions and classes, the triangles
+    and the incision's control points (the reference a cut's USD must match)."""
+
+    def __init__(self):
+        self.frames = []
+
+    def on_frame(self, sim, frame):
+        model = sim.model
+        live = np.flatnonzero(model.active)
+        controls = sim.incision_controls
+        self.frames.append((live, sim.state.positions.numpy()[live], model.triangles.copy(),
+                            model.node_class[live].copy(),
+                            None if controls is None else controls.copy()))
+
+    def finish(self, metrics):
+        pass
+
+
 def test_a_real_cut_is_exported_with_its_topology_changes_and_incision(tmp_path):
-    out = tmp_path / "cut"
-    assert main(["run", "paper_width_curve", "--quiet", "--out", str(out), "--usd-chunk", "16",
-                 "--set", "duration=0.8"]) == 0
-    stage = Usd.Stage.Open(str(out / "paper_width_curve.usdc"))
+    scene = load_scene("paper_width_curve", ["duration=0.8"])
+    path = tmp_path / "cut" / "paper_width_curve.usdc"
+    ref = _Topology()
+    run_scene(scene, observers=[ref, UsdRecorder(path, scene, chunk_frames=16)])
+    stage = Usd.Stage.Open(str(path))
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Tissue"))
-    counts = {len(mesh.GetPointsAttr().Get(t)) for t in range(0, 49)}
-    assert len(counts) > 3  # the cut deletes and adds nodes as it goes
+    primvars = UsdGeom.PrimvarsAPI(mesh)
     curves = UsdGeom.BasisCurves(stage.GetPrimAtPath("/World/Incision"))
-    assert list(curves.GetCurveVertexCountsAttr().Get(0)) == []
-    n = list(curves.GetCurveVertexCountsAttr().Get(48))
-    assert len(n) == 1 and n[0] >= 4 and (n[0] - 1) % 3 == 0
-    classes = set(np.array(UsdGeom.PrimvarsAPI(mesh).GetPrimvar("displayColor").GetIndices(48)))
-    assert {NodeClass.NORMAL, NodeClass.LIP, NodeClass.BLUE} <= classes
-    assert (out / "width.png").is_file()
+    assert len(ref.frames) == scene.frame_count + 1 == stage.GetEndTimeCode() + 1
+    for frame, (live, x, triangles, classes, controls) in enumerate(ref.frames):
+        # each frame holds the live nodes of that frame (numbered by nodeIndex), the model's
+        # triangles in that numbering, the node classes and the incision curve
+        node_index = np.array(primvars.GetPrimvar("nodeIndex").Get(frame))
+        np.testing.assert_array_equal(node_index, live)
+        np.testing.assert_array_equal(np.array(mesh.GetPointsAttr().Get(frame)), x)
+        faces = np.array(mesh.GetFaceVertexIndicesAttr().Get(frame)).reshape(-1, 3)
+        np.testing.assert_array_equal(node_index[faces], triangles)
+        assert set(mesh.GetFaceVertexCountsAttr().Get(frame)) <= {3}
+        np.testing.assert_array_equal(np.array(primvars.GetPrimvar("displayColor").GetIndices(frame)),
+                                      classes)
+        counts = list(curves.GetCurveVertexCountsAttr().Get(frame))
+        if controls is None:
+            assert counts == []
+        else:
+            assert counts == [len(controls)] and (len(controls) - 1) % 3 == 0
+            np.testing.assert_allclose(np.array(curves.GetPointsAttr().Get(frame)), controls,
+                                       rtol=0, atol=1e-7)  # float32 in the file
+    # the run did cut: the topology and the classes changed while it was recorded
+    assert len({len(f[0]) for f in ref.frames}) > 1 and ref.frames[-1][4] is not None
+    assert {NodeClass.NORMAL, NodeClass.LIP, NodeClass.BLUE} <= set(ref.frames[-1][3])
     # every time sample checked by the conftest fixture (usd-check and UsdValidation)
 
 
@@ -285,3 +320,42 @@ def test_flatten_gives_one_file_with_the_same_animation(tmp_path):
         assert np.array_equal(np.array(pa), np.array(b.GetAttributeAtPath("/World/Tissue.points").Get(t)))
     _assert_valid(flat)
     assert main(["usd-flatten", str(tmp_path / "none.usdc"), str(flat)]) == 2
+
+
+class _FlushAt:
+    """Observer flushing the recorder at one frame and reading the stage on disk right then."""
+
+    def __init__(self, recorder, frame):
+        self.recorder, self.frame = recorder, frame
+        self.seen = None
+
+    def on_frame(self, sim, frame):
+        if frame == self.frame:
+            self.recorder.flush()
+            stage = Usd.Stage.Open(str(self.recorder.path))
+            mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Tissue"))
+            live = np.flatnonzero(sim.model.active)
+            self.seen = (stage.GetEndTimeCode(), np.array(mesh.GetPointsAttr().Get(frame)),
+                         sim.state.positions.numpy()[live].copy())
+
+    def finish(self, metrics):
+        pass
+
+
+def test_flush_mid_chunk_writes_the_frames_so_far_and_recording_goes_on(tmp_path):
+    scene = load_scene("skin_press", TINY + ["duration=0.3"])
+    path = tmp_path / "run" / "press.usdc"
+    rec = UsdRecorder(path, scene, chunk_frames=4)
+    ref = _Positions()
+    flush = _FlushAt(rec, 6)  # chunk 1 holds frames 4-6, the next chunk starts at 7
+    run_scene(scene, observers=[ref, rec, flush])
+    end, on_disk, expected = flush.seen
+    assert end == 6 and np.array_equal(on_disk, expected)
+    stage = Usd.Stage.Open(str(path))
+    assert stage.GetEndTimeCode() == scene.frame_count
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Tissue"))
+    for frame, _, x in ref.frames:  # every frame, on both sides of the early chunk end
+        assert np.array_equal(np.array(mesh.GetPointsAttr().Get(frame)), x)
+    starts = [a[0] for a in Usd.ClipsAPI(stage.GetPrimAtPath("/World")).GetClipActive()]
+    assert starts[:4] == [0, 4, 7, 11]
+    _assert_valid(path)

@@ -1,4 +1,4 @@
-"""Command line: ``warp-cut run``, ``warp-cut validate``, ``warp-cut batch``, ``warp-cut report``, ...
+"""Command line: ``warp-cut run``, ``warp-cut validate``, ``warp-cut batch``, ``warp-cut live``, ...
 
 Exit codes: 0 success, 1 a check found problems (``usd-check``) or a batch scenario failed,
 was unstable or was lost, 2 bad input (nothing written), 3 simulation unstable (nothing
@@ -16,8 +16,13 @@ from .batch.report import plot_results
 from .batch.sweep import load_sweep
 from .errors import InputError, SimulationUnstable
 from .experiments import mean_abs_error_pct, run_experiment, write_report
+from .experiments import wound as fracture
 from .io.usd_check import check_usd, validate_usd
 from .io.usd_export import DEFAULT_CHUNK_FRAMES, flatten_usd
+from .live.app import LiveApp, PlayerApp, serve
+from .live.engine import LiveCut
+from .live.playback import RunPlayback
+from .live.server import check_port, import_viser
 from .runner import prepare_simulation, run_to_directory
 from .scene import load_scene
 from .sim.warp_config import quiet_warp
@@ -39,6 +44,10 @@ def _cmd_run(args) -> int:
         print(f"{scene.name}: {m['nodes']} nodes, {m['springs']} springs, {m['steps']} steps of "
               f"{m['dt']:.3g} s x {m['substeps']} substeps, {m['wall_time_s']:.2f} s wall "
               f"({m['realtime_factor']:.2f}x real time)")
+        ticks = m.get("tick_ms")
+        if ticks and ticks["p50"] is not None:
+            print(f"  ticks: p50 {ticks['p50']:.3f} ms, p99 {ticks['p99']:.3f} ms, max {ticks['max']:.3f} ms, "
+                  f"{ticks['over_budget']} of {ticks['ticks']} over the {ticks['budget_ms']:.3g} ms budget")
         for path in written:
             print(f"  wrote {path}")
     return EXIT_OK
@@ -92,6 +101,21 @@ def _cmd_experiment_collision(args) -> int:
     return EXIT_OK
 
 
+def _cmd_experiment_wound(args) -> int:
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise InputError(f"--out {args.out}: exists and is not a directory")
+    load_scene(args.scene)  # a bad scene is refused before the long part
+    comparisons = fracture.run_experiment(args.scene, quick=args.quick)
+    written = fracture.write_report(args.out, comparisons)
+    if not args.quiet:
+        for c in comparisons:
+            print(f"{c.label}: centre {c.centre_ratio():.3f} x closed form, max error "
+                  f"{100 * c.max_error():.1f} % over the middle 80 % ({c.setup})")
+        for path in written:
+            print(f"  wrote {path}")
+    return EXIT_OK
+
+
 def _cmd_batch(args) -> int:
     """``warp-cut batch``: run a sweep; exit 1 if a scenario failed, 130 if interrupted."""
     if args.workers is not None and args.scheduler:
@@ -120,6 +144,36 @@ def _cmd_report(args) -> int:
     for path in plot_results(args.dir):
         print(f"  wrote {path}")
     return EXIT_OK
+
+
+def _cmd_live(args) -> int:
+    """Cut live in a browser page until Ctrl-C."""
+    import_viser()
+    check_port(args.host, args.port)  # before the simulation is built
+    live = LiveCut(args.scene, args.set, speed=1e-3 * args.speed)
+    try:
+        app = LiveApp(live, host=args.host, port=args.port, out_dir=args.out)
+        serve(app, f"live cutting of {live.scene.name}")
+    finally:
+        live.close()
+    return EXIT_OK
+
+
+def _cmd_view(args) -> int:
+    """Replay a finished run in a browser page until Ctrl-C."""
+    import_viser()
+    check_port(args.host, args.port)
+    playback = RunPlayback(args.run)
+    serve(PlayerApp(playback, host=args.host, port=args.port),
+          f"replay of {playback.path} ({playback.frame_count} frames)")
+    return EXIT_OK
+
+
+def _add_server_options(parser) -> None:
+    parser.add_argument("--port", type=int, default=0,
+                        help="port of the page (default 0: any free port; a taken port is an error)")
+    parser.add_argument("--host", default="127.0.0.1",
+                        help="address to listen on (default 127.0.0.1, this machine only)")
 
 
 def _numbers(text: str) -> list[float]:
@@ -187,6 +241,16 @@ def _add_experiment(sub) -> None:
                      help="simulation steps per second, the per-step test's rate (default 1000)")
     col.add_argument("--quiet", action="store_true", help="no summary")
     col.set_defaults(func=_cmd_experiment_collision)
+    wnd = exps.add_parser("wound", help="the opening of a cut in a prestressed sheet against linear "
+                                        "elastic fracture mechanics (docs/wound.md)")
+    wnd.add_argument("--out", default=os.path.join("out", "wound"),
+                     help="output directory (default: out/wound)")
+    wnd.add_argument("--scene", default="wound_gape",
+                     help="the scene whose straight cut is compared (default: wound_gape)")
+    wnd.add_argument("--quick", action="store_true",
+                     help="only the exact-slit checks (no run of the scene)")
+    wnd.add_argument("--quiet", action="store_true", help="no summary")
+    wnd.set_defaults(func=_cmd_experiment_wound)
 
 
 def _add_batch(sub) -> None:
@@ -203,6 +267,23 @@ def _add_batch(sub) -> None:
     bat.add_argument("--plot", action="store_true", help="draw metrics against parameters")
     bat.add_argument("--quiet", action="store_true", help="no progress output")
     bat.set_defaults(func=_cmd_batch)
+    live = sub.add_parser("live", help="cut live in a browser page: drag the scalpel, watch the "
+                                       "wound open, save the run (needs the live extra)")
+    live.add_argument("scene", nargs="?", default=None,
+                      help="scene file or bundled scene name with a [tool] (default: the default scene)")
+    live.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                      help="override a scene key (TOML value syntax); repeatable")
+    live.add_argument("--out", help="default directory of the page's save button "
+                                    "(default: out/<scene name>_live)")
+    live.add_argument("--speed", type=float, default=20.0,
+                      help="largest scalpel tip speed [mm/s] (default 20)")
+    _add_server_options(live)
+    live.set_defaults(func=_cmd_live)
+    view = sub.add_parser("view", help="replay a finished run (its USD) in a browser page "
+                                       "(needs the live extra)")
+    view.add_argument("run", metavar="OUT_DIR", help="output directory of warp-cut run (or a USD file)")
+    _add_server_options(view)
+    view.set_defaults(func=_cmd_view)
     rep = sub.add_parser("report", help="draw a batch's metrics against its parameters (PNG)")
     rep.add_argument("dir", help="batch output directory (holds results.csv)")
     rep.set_defaults(func=_cmd_report)

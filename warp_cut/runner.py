@@ -20,12 +20,19 @@ from .mesh.checks import check_mesh
 from .scene import Scene
 from .simulator import Simulator
 from .solvers import INTEGRATORS
+from .ticks import TickLog, frozen_gc
 
 __all__ = ["RunResult", "prepare_simulation", "run_scene", "run_to_directory", "record_frame",
-           "run_metrics", "write_outputs", "TIMESERIES_COLUMNS"]
+           "frame_values", "timeseries_columns", "run_metrics", "final_mesh", "write_outputs",
+           "TIMESERIES_COLUMNS", "PROFILE_COLUMNS"]
 
-TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy"]
-"""Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J]."""
+TIMESERIES_COLUMNS = ["t", "tool_fx", "tool_fy", "tool_fz", "contacts", "kinetic_energy", "tick_max_ms"]
+"""Columns of timeseries.csv: time [s], tool force [N], mean nodes in contact, energy [J], the
+longest tick (one step) of the frame [ms]."""
+
+PROFILE_COLUMNS = ["incision", "arc_length_m", "gap_m"]
+"""Columns of incision_profile.csv (``Cutter.gap_profile`` at the end of a run with cutting):
+incision index, arc length along it [m], gap between its lips there [m]."""
 
 
 @dataclass
@@ -36,6 +43,9 @@ class RunResult:
     columns: dict = field(default_factory=dict)
     final_mesh: dict | None = None
     """points (k, 3) [m], triangles (t, 3) and node_class (k,) of the live nodes at the end."""
+    profile: dict | None = None
+    """The incisions' opening at the end (``Cutter.gap_profile``, PROFILE_COLUMNS), or None
+    without cutting."""
 
 
 def prepare_simulation(scene: Scene):
@@ -83,42 +93,58 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
     """
     model, sim, path, steps_per_frame = prepare_simulation(scene)
     frames = scene.frame_count
-    columns = TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
-    series = {c: np.zeros(frames + 1) for c in columns}
+    series = {c: np.zeros(frames + 1) for c in timeseries_columns(sim)}
+    ticks = TickLog(frames * steps_per_frame, budget=sim.dt)
     bar = _progress(frames, quiet)
     start = time.perf_counter()
     try:
-        for frame in range(frames + 1):
-            if frame:
-                sim.step(steps_per_frame, tool=path)
-            for obs in observers:
-                obs.on_frame(sim, frame)
-            record_frame(series, frame, sim)
-            if bar is not None and frame:
-                bar.update(1)
+        with frozen_gc():
+            for frame in range(frames + 1):
+                for _ in range(steps_per_frame if frame else 0):
+                    ticks.step(sim, path)  # one step per tick, as a haptic loop calls it
+                for obs in observers:
+                    obs.on_frame(sim, frame)
+                record_frame(series, frame, sim, ticks)
+                if bar is not None and frame:
+                    bar.update(1)
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
-    metrics = run_metrics(scene, sim, series, steps=frames * steps_per_frame, wall_time=wall)
+    metrics = run_metrics(scene, sim, series, steps=frames * steps_per_frame, wall_time=wall,
+                          ticks=ticks if path is not None else None)
     for obs in observers:
         obs.finish(metrics)
-    return RunResult(metrics, series, final_mesh(sim))
+    profile = sim.cutter.gap_profile(sim.positions) if sim.cutter is not None else None
+    return RunResult(metrics, series, final_mesh(sim), profile)
 
 
-def record_frame(series: dict, frame: int, sim: Simulator) -> None:
-    """Fill row ``frame`` of the time series (``TIMESERIES_COLUMNS`` and, when cutting,
-    ``incision_width_m``) from the simulator's state after that frame."""
-    series["t"][frame] = sim.time
-    series["tool_fx"][frame], series["tool_fy"][frame], series["tool_fz"][frame] = sim.tool_force
-    series["contacts"][frame] = sim.contact_count
-    series["kinetic_energy"][frame] = sim.kinetic_energy()
+def timeseries_columns(sim: Simulator) -> list[str]:
+    """Columns of timeseries.csv for this simulator (the incision width when it cuts)."""
+    return TIMESERIES_COLUMNS + (["incision_width_m"] if sim.cutter is not None else [])
+
+
+def frame_values(sim: Simulator, ticks: TickLog | None = None) -> dict:
+    """One row of timeseries.csv from the simulator's state now: column name -> value
+    (``tick_max_ms`` from ``ticks``, the frame's ticks; 0 without)."""
+    fx, fy, fz = sim.tool_force
+    row = {"t": sim.time, "tool_fx": fx, "tool_fy": fy, "tool_fz": fz, "contacts": sim.contact_count,
+           "kinetic_energy": sim.kinetic_energy(),
+           "tick_max_ms": ticks.frame_max_ms() if ticks is not None else 0.0}
     if sim.cutter is not None:
-        series["incision_width_m"][frame] = sim.cutter.incision_width(sim.positions)
+        row["incision_width_m"] = sim.cutter.incision_width(sim.positions)
+    return row
+
+
+def record_frame(series: dict, frame: int, sim: Simulator, ticks: TickLog | None = None) -> None:
+    """Fill row ``frame`` of the time series (``timeseries_columns``) from the simulator's
+    state after that frame (see ``frame_values``)."""
+    for name, value in frame_values(sim, ticks).items():
+        series[name][frame] = value
 
 
 def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
-                wall_time: float) -> dict:
+                wall_time: float, ticks: TickLog | None = None) -> dict:
     """The content of metrics.json for a run of ``scene`` that has reached ``sim.time``.
 
     Args:
@@ -127,6 +153,7 @@ def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
         series: the time series so far (``record_frame``), name -> (frames + 1,).
         steps: steps taken.
         wall_time: wall-clock time of the stepping [s].
+        ticks: the run's ticks (``tick_ms`` and ``tool_force_jump_n`` are added), or None.
     """
     model = sim.model
     metrics = {
@@ -154,8 +181,13 @@ def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
         "finite": True,
         "mesh": mesh_quality(sim),
     }
+    if ticks is not None:
+        metrics.update(ticks.metrics())
     if sim.cutter is not None:
-        metrics.update(sim.cutter.metrics(sim.positions))
+        x = sim.positions
+        metrics.update(sim.cutter.metrics(x))
+        gaps = sim.cutter.gap_profile(x)["gap_m"]
+        metrics["incision"]["max_gap_m"] = float(gaps.max()) if len(gaps) else None
         metrics["width_curve"] = width_curve_metrics(series["t"], series["incision_width_m"])
     return metrics
 
@@ -184,12 +216,18 @@ def final_mesh(sim) -> dict:
 
 
 def write_outputs(result: RunResult, out_dir) -> list[Path]:
-    """Write metrics.json, timeseries.csv and final_mesh.ply into out_dir (each atomically)."""
+    """Write metrics.json, timeseries.csv, final_mesh.ply and, with cutting,
+    incision_profile.csv into out_dir (each atomically)."""
     out = Path(out_dir)
     columns = list(result.columns)
     rows = zip(*(result.columns[c] for c in columns))
     write_csv(out / "timeseries.csv", columns, ([float(v) for v in row] for row in rows))
     written = [out / "timeseries.csv"]
+    if result.profile is not None:
+        p = result.profile
+        write_csv(out / "incision_profile.csv", PROFILE_COLUMNS,
+                  ([int(n), float(u), float(g)] for n, u, g in zip(*(p[c] for c in PROFILE_COLUMNS))))
+        written.append(out / "incision_profile.csv")
     if result.final_mesh is not None:
         write_ply(out / "final_mesh.ply", **result.final_mesh)
         written.append(out / "final_mesh.ply")
@@ -201,7 +239,8 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
                      usd_chunk: int = DEFAULT_CHUNK_FRAMES, quiet: bool = True
                      ) -> tuple[RunResult, list[Path]]:
     """Run ``scene`` and write everything a run writes into ``out_dir``: metrics.json,
-    timeseries.csv, final_mesh.ply, the pictures and (``usd``) the USD playback file.
+    timeseries.csv, final_mesh.ply, incision_profile.csv (with cutting), the pictures and
+    (``usd``) the USD playback file.
 
     What ``warp-cut run`` does, and what each batch worker does. On bad input or an unstable
     simulation nothing is left behind (the USD chunks included) and the error is raised.

@@ -8,6 +8,7 @@ parsed section by section into frozen dataclasses: ``TissueSection``, ``PhysicsS
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -20,7 +21,7 @@ from .cut.cutter import CutSettings
 from .errors import InputError, SceneError
 from .mesh.checks import cuttable_problems
 from .sim.control import ToolPath
-from .sim.material import Material
+from .sim.material import RESIDUAL_STRESS_MODELS, Material
 from .sim.model import TissueModel, boundary_nodes
 from .sim.stiffness import STIFFNESS_MODELS, material_stiffness
 from .solvers import INTEGRATORS
@@ -31,13 +32,19 @@ __all__ = ["Scene", "TissueSection", "PhysicsSection", "SolverSection", "ToolSec
 DEFAULT_SCENE = "straight_incision"
 """Bundled scene run by ``warp-cut run`` without a scene argument."""
 
+DEFAULT_FOUNDATION_STIFFNESS = 1.0e6
+"""``material.foundation_stiffness`` k_f [N/m^3] when ``physics.foundation`` is on and none is given:
+a subcutaneous layer of Young's modulus ~5-10 kPa and 5-10 mm thickness (k_f ~ E / depth); the
+Table 1 skin patch then settles by rho t g / k_f = 22 um under gravity."""
+
 _SCHEMA: dict[str, set[str]] = {
     "": {"name", "duration", "fps", "device", "tissue", "material", "physics", "solver", "tool",
          "cutting"},
     "tissue": {"kind", "size", "spacing", "path", "scale", "thickness", "density", "pinned",
                "uniform_mass"},
-    "material": {"stiffness", "stiffness_model", "damping", "youngs_modulus", "residual_strain"},
-    "physics": {"gravity", "residual_stress", "collision", "cutting"},
+    "material": {"stiffness", "stiffness_model", "damping", "youngs_modulus", "residual_strain",
+                 "residual_stress_model", "foundation_stiffness"},
+    "physics": {"gravity", "residual_stress", "collision", "cutting", "foundation"},
     "solver": {"integrator", "dt", "substeps", "safety"},
     "tool": {"radius", "length", "keyframes"},
     "cutting": {"sweep_radius", "interval", "force_threshold", "spacing", "tolerance", "lip_offset"},
@@ -145,15 +152,19 @@ class PhysicsSection:
 
     Attributes:
         gravity: Gravity [m/s^2], shape (3,), or None for none.
-        residual_stress: Residual-stress links where the cut deletes springs.
+        residual_stress: The residual stress (links where the cut deletes springs, or the
+            prestress, as ``material.residual_stress_model`` says).
         collision: The tool test and response.
         cutting: Cut the tissue where the tool goes.
+        foundation: A support holding each node to its rest position
+            (``material.foundation_stiffness``).
     """
 
     gravity: np.ndarray | None
     residual_stress: bool = True
     collision: bool = True
     cutting: bool = False
+    foundation: bool = False
 
 
 @dataclass(frozen=True)
@@ -206,7 +217,8 @@ class Scene:
         duration: Simulated time [s].
         fps: Output frames per second.
         device: Warp device.
-        material: Material constants (stiffness, damping, E, residual strain, thickness, density).
+        material: Material constants (stiffness, damping, E, residual strain, thickness, density,
+            residual-stress model, foundation stiffness: 0 unless ``physics.foundation``).
         stiffness_model: ``"constant"`` (every spring K) or ``"material"`` (from E and thickness).
         tissue, physics, solver: The sections of the same names.
         tool: The ``[tool]`` section, or None.
@@ -237,14 +249,17 @@ class Scene:
     def build_model(self) -> TissueModel:
         """The TissueModel this scene describes."""
         t = self.tissue
+        # the prestress is applied below, once the stiffness is final
+        plain = dataclasses.replace(self.material, residual_stress_model="links")
         try:
             if t.kind == "patch":
-                model = TissueModel.from_patch(t.size, t.spacing, material=self.material, pinned="none")
+                model = TissueModel.from_patch(t.size, t.spacing, material=plain, pinned="none")
             else:
-                model = TissueModel.from_mesh_file(t.path, material=self.material, pinned="none",
+                model = TissueModel.from_mesh_file(t.path, material=plain, pinned="none",
                                                    scale=t.scale)
         except InputError as exc:
             raise SceneError(self.path, "tissue", str(exc)) from exc
+        model.material = self.material
         if t.kind == "mesh" and self.physics.cutting:
             problems = cuttable_problems(model.points, model.triangles)
             if problems:
@@ -260,6 +275,11 @@ class Scene:
             model.stiffness = material_stiffness(
                 model.points, model.triangles, model.springs, self.material.youngs_modulus,
                 self.material.thickness, fallback=self.material.stiffness)
+        if self.material.residual_stress_model == "prestress":
+            try:
+                model.apply_prestress(None if self.physics.residual_stress else 0.0)
+            except InputError as exc:
+                raise SceneError(self.path, "material.residual_strain", str(exc)) from exc
         return model
 
     def _pin(self, model: TissueModel) -> None:
@@ -321,6 +341,10 @@ def _parse_material(r: _Reader) -> tuple[Material, str]:
         density=r.number(tis_t, "tissue", "density", d.density, low=0, high=1e5, low_open=True),
     )
     model = r.choice(mat_t, "material", "stiffness_model", "constant", set(STIFFNESS_MODELS))
+    stress_model = r.choice(mat_t, "material", "residual_stress_model", "links", set(RESIDUAL_STRESS_MODELS))
+    k_f = r.number(mat_t, "material", "foundation_stiffness", DEFAULT_FOUNDATION_STIFFNESS,
+                   low=0, high=1e10, low_open=True)
+    material = dataclasses.replace(material, residual_stress_model=stress_model, foundation_stiffness=k_f)
     return material, model
 
 
@@ -397,6 +421,7 @@ def _parse_physics(r: _Reader) -> PhysicsSection:
         residual_stress=r.boolean(phys_t, "physics", "residual_stress", True),
         collision=r.boolean(phys_t, "physics", "collision", True),
         cutting=r.boolean(phys_t, "physics", "cutting", False),
+        foundation=r.boolean(phys_t, "physics", "foundation", False),
     )
 
 
@@ -482,6 +507,8 @@ def parse_scene(data: dict, path=None) -> Scene:
     material, stiffness_model = _parse_material(r)
     tissue = _parse_tissue(r)
     physics = _parse_physics(r)
+    if not physics.foundation:  # the support's stiffness counts only when the scene asks for it
+        material = dataclasses.replace(material, foundation_stiffness=0.0)
     solver = _parse_solver(r, fps)
     cutting = _parse_cutting(r, duration)
     if physics.cutting and "tool" not in data:

@@ -10,7 +10,7 @@ import warp as wp
 
 from .cut.cutter import CutSettings, Cutter
 from .errors import InputError, SimulationUnstable, ToolStartsInside
-from .kernels.diagnostics import find_runaway_nodes, kinetic_energy
+from .kernels.diagnostics import displacement_limit_sq, find_runaway_nodes, kinetic_energy
 from .kernels.scatter import scatter_vec3
 from .sim.ccd import ContinuousDetector
 from .sim.collision import cylinder_contacts
@@ -20,6 +20,7 @@ from .sim.model import TissueModel
 from .sim.stability import StepLimit
 from .sim.state import State
 from .solvers import INTEGRATORS
+from .solvers.readout import NO_BAD_NODE
 
 __all__ = ["Simulator", "DEFAULT_GRAVITY"]
 
@@ -118,8 +119,8 @@ class Simulator:
 
     def _make_solver(self):
         return INTEGRATORS[self.integrator](
-            self.device_model, gravity=self.gravity,
-            residual_stress=self.residual_stress, collision=self.collision)
+            self.device_model, gravity=self.gravity, residual_stress=self.residual_stress,
+            collision=self.collision, max_displacement=self.max_displacement)
 
     def _choose_steps(self) -> None:
         limit = self.step_limit.step
@@ -196,6 +197,7 @@ class Simulator:
             full = target.numpy()
             full[:n] = arr
             target.assign(full)
+        self.solver.readout.clear_bad_node()
 
     def kinetic_energy(self) -> float:
         """Sum of 0.5 m |v|^2 over the nodes [J]."""
@@ -231,40 +233,51 @@ class Simulator:
     def step(self, n: int = 1, tool: ToolInput = None) -> None:
         """Advance n steps of dt. ``tool``: a fixed Tool pose, a ToolPath evaluated at the end
         of each step, a callable t -> Tool, or None. Raises SimulationUnstable before any
-        non-finite value can be read back."""
+        non-finite value can be read back: after every step, before the post-step hooks."""
         if n < 0:
             raise InputError(f"n must be >= 0, got {n}")
         for _ in range(int(n)):
-            h = self.substep
-            pose = self._resolve_tool(tool, self.time + self.dt)
-            if pose is not None and not self._tool_checked and self.collision:
-                self.check_tool_outside(self._resolve_tool(tool, self.time))
-            use_tool = pose is not None and self.collision
-            if use_tool:
-                self._continuous_first_contact(self.tool_pose or self._resolve_tool(tool, self.time), pose)
-                self.solver.clear_tool_stats()
-            self.tool_pose = pose
-            for _ in range(self.substeps):
-                self.solver.step(self._state, self._next, pose, h)
-                self._state, self._next = self._next, self._state
-            self._step_count += 1
-            if use_tool:
-                self._read_tool_stats()
-            else:
-                self.tool_force = np.zeros(3)
-                self.contact_count = 0.0
-                self.contact_centroid = None
-            for hook in self.post_step_hooks:
-                hook(self)
-        self.check_finite()
+            self._step_once(tool)
+
+    def _step_once(self, tool: ToolInput) -> None:
+        """One step: the tool pose at its end, the substeps, the guard, the statistics, the hooks."""
+        pose = self._resolve_tool(tool, self.time + self.dt)
+        use_tool = pose is not None and self.collision
+        if use_tool:
+            self._before_contact(tool, pose)
+            self.solver.clear_tool_stats()
+        self.tool_pose = pose
+        h = self.substep
+        solver = self.solver
+        for _ in range(self.substeps):
+            solver.step(self._state, self._next, pose, h)
+            self._state, self._next = self._next, self._state
+        self._step_count += 1
+        solver.readout.fetch(tool_stats=use_tool)
+        if solver.readout.first_bad != NO_BAD_NODE:
+            self._raise_unstable(solver.readout.first_bad)
+        if use_tool:
+            self._read_tool_stats()
+        else:
+            self.tool_force = np.zeros(3)
+            self.contact_count = 0.0
+            self.contact_centroid = None
+        for hook in self.post_step_hooks:
+            hook(self)
+
+    def _before_contact(self, tool: ToolInput, pose: Tool) -> None:
+        """Until the first contact is known: check the first pose is outside the tissue, and
+        run the continuous first-contact detection over the coming step."""
+        if self.first_contact_time_exact is not None or self.first_contact_time is not None:
+            return
+        if not self._tool_checked:
+            self.check_tool_outside(self._resolve_tool(tool, self.time))
+        self._continuous_first_contact(self.tool_pose or self._resolve_tool(tool, self.time), pose)
 
     def _continuous_first_contact(self, start: Tool, end: Tool) -> None:
         """Continuous detection over the coming step: the tool's end points move linearly from
         ``start`` to ``end``, the nodes with their current velocity. Evaluated each step until
         a first contact is known (one extra per-node launch per step before contact)."""
-        if self.first_contact_time_exact is not None or self.first_contact_time is not None:
-            return
-
         if self._ccd is None:
             self._ccd = ContinuousDetector(self.device)
         hit = self._ccd.first_contact(self._state.positions, self._state.velocities,
@@ -275,13 +288,12 @@ class Simulator:
             self.first_contact_point_exact = hit.point
 
     def _read_tool_stats(self) -> None:
-        s = self.solver
-        count = int(s.contact_count.numpy()[0])
-        self.tool_force = s.tool_force.numpy()[0].astype(np.float64) / self.substeps
+        force, count, position_sum = self.solver.readout.tool_stats()
+        force /= self.substeps
+        self.tool_force = force
         self.contact_count = count / self.substeps
-        self.max_tool_force = max(self.max_tool_force, float(np.linalg.norm(self.tool_force)))
-        self.contact_centroid = (s.contact_position_sum.numpy()[0].astype(np.float64) / count
-                                 if count else None)
+        self.max_tool_force = max(self.max_tool_force, math.sqrt(force.dot(force)))
+        self.contact_centroid = position_sum / count if count else None
         if count and self.first_contact_time is None:
             self.first_contact_time = self.time
             self.first_contact_point = self.contact_centroid
@@ -323,6 +335,8 @@ class Simulator:
         else:
             self.solver.topology_changed()
         self.update_step_limit(explicit_limit if self.integrator == "semi_implicit" else None)
+        # record the new launches now, in the step that made the edit, not in the next one
+        self.solver.prepare(self._state, self._next, self.substep)
 
     def update_step_limit(self, limit: StepLimit | None = None) -> None:
         """Set the stable step (recomputed from the model if not given) and the substeps."""
@@ -330,18 +344,25 @@ class Simulator:
         self._choose_steps()
 
     def check_finite(self) -> None:
-        """Raise SimulationUnstable if any active node is non-finite or has run away."""
+        """Raise SimulationUnstable if any active node is non-finite or has run away.
+
+        ``step`` needs no call to this: every integrator's last node pass runs the same test
+        on the state it writes, and ``step`` reads its one-int result after every step."""
 
         m = self.device_model
-        first_bad = wp.array([m.node_count], dtype=wp.int32, device=self.device)
+        first_bad = wp.array([NO_BAD_NODE], dtype=wp.int32, device=self.device)
         wp.launch(find_runaway_nodes, dim=m.node_count, device=self.device,
                   inputs=[self._state.positions, self._state.velocities, m.rest_positions,
-                          m.node_flags, self.max_displacement, first_bad])
+                          m.node_flags, displacement_limit_sq(self.max_displacement), first_bad])
         node = int(first_bad.numpy()[0])
-        if node < m.node_count:
-            x = self._state.positions.numpy()[node]
-            v = self._state.velocities.numpy()[node]
-            finite = np.all(np.isfinite(x)) and np.all(np.isfinite(v))
-            reason = ("has a non-finite position or velocity" if not finite
-                      else f"moved more than {self.max_displacement:.3g} m from rest")
-            raise SimulationUnstable(node, self.time, self.substep, self.step_limit.step, reason)
+        if node != NO_BAD_NODE:
+            self._raise_unstable(node)
+
+    def _raise_unstable(self, node: int) -> None:
+        """Raise SimulationUnstable for ``node``, saying whether it is non-finite or ran away."""
+        x = self._state.positions.numpy()[node]
+        v = self._state.velocities.numpy()[node]
+        finite = np.all(np.isfinite(x)) and np.all(np.isfinite(v))
+        reason = ("has a non-finite position or velocity" if not finite
+                  else f"moved more than {self.max_displacement:.3g} m from rest")
+        raise SimulationUnstable(node, self.time, self.substep, self.step_limit.step, reason)

@@ -17,6 +17,7 @@ import socket
 import sys
 import tempfile
 import time
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -145,7 +146,11 @@ def _open_executor(workers: int | None, scheduler: str | None):
     pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
     def close(wait: bool) -> None:
+        processes = list((getattr(pool, "_processes", None) or {}).values())
         pool.shutdown(wait=wait, cancel_futures=True)
+        if not wait:  # interrupted: stop the scenarios still running (the interpreter's exit
+            for process in processes:  # would otherwise wait for them to end)
+                process.terminate()
 
     return pool, close
 
@@ -187,7 +192,9 @@ def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: s
     """Run every scenario of ``sweep`` not already finished in ``out_dir``.
 
     Results land in ``out_dir`` as each scenario finishes; on KeyboardInterrupt the finished
-    ones are kept and the rest are cancelled.
+    ones are kept and the rest are cancelled. A local worker process that dies breaks the
+    pool, which fails every scenario it held: they run again on a fresh pool (see
+    ``_run_scenarios``); a Dask cluster reschedules them itself.
 
     Args:
         sweep: The expanded sweep.
@@ -206,7 +213,7 @@ def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: s
     """
     summary = BatchSummary(total=len(sweep.scenarios))
     store = BatchStore(out_dir, sweep)
-    executor, close = _open_executor(workers, scheduler)  # bad options fail before any write
+    pool = _Executor(workers, scheduler)  # bad options fail before any write
     finished = False
     try:
         with store:
@@ -217,28 +224,92 @@ def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: s
                 summary.counts[record["status"]] += 1
             bar = _Progress(summary.total, summary.skipped,
                             summary.skipped - summary.counts["ok"], progress)
-            futures = {}  # filled one by one: if a submit fails, those already sent are cancelled
             try:
-                for s in todo:
-                    futures[executor.submit(run_scenario, {
-                        "scene_text": sweep.base_text, "scene_path": str(sweep.base_path),
-                        "overrides": sweep.overrides(s), "usd": usd})] = s
-                for future in cf.as_completed(futures):
-                    scenario = futures.pop(future)
-                    try:
-                        outcome = future.result()
-                    except Exception as exc:  # noqa: BLE001 - the worker, not the scenario, failed
-                        summary.lost.append((scenario.id, f"{type(exc).__name__}: {exc}"))
-                        bar.update(scenario.id, "lost")
-                        continue
-                    store.commit(scenario, outcome)
-                    summary.counts[outcome["status"]] += 1
-                    bar.update(scenario.id, outcome["status"])
+                _run_scenarios(_Round(sweep, pool, store, summary, bar, usd), todo)
             finally:
-                for future in futures:
-                    future.cancel()
                 bar.close()
         finished = True
     finally:
-        close(wait=finished)  # after Ctrl-C, do not wait for scenarios still running
+        pool.close(wait=finished)  # after Ctrl-C, do not wait for scenarios still running
     return summary
+
+
+class _Executor:
+    """The executor of ``_open_executor`` and its size, reopened when a local pool breaks."""
+
+    def __init__(self, workers: int | None, scheduler: str | None):
+        self.options = (workers, scheduler)
+        self.size = workers or os.cpu_count() or 1
+        self.executor, self.close = _open_executor(workers, scheduler)
+
+    def reopen(self) -> None:
+        self.close(wait=True)
+        self.executor, self.close = _open_executor(*self.options)
+
+
+@dataclass
+class _Round:
+    """What running a list of scenarios needs: where to send them and where results go."""
+
+    sweep: Sweep
+    pool: _Executor
+    store: BatchStore
+    summary: BatchSummary
+    bar: _Progress
+    usd: bool
+
+    def run(self, scenarios: list) -> list:
+        """Submit ``scenarios``, commit each outcome as it arrives; return those failed by a
+        broken local pool, in submission order (others a worker lost are recorded lost)."""
+        futures, broken = {}, set()  # futures filled one by one: if a submit fails, those
+        try:                          # already sent are cancelled
+            for s in scenarios:
+                futures[self.pool.executor.submit(run_scenario, {
+                    "scene_text": self.sweep.base_text, "scene_path": str(self.sweep.base_path),
+                    "overrides": self.sweep.overrides(s), "usd": self.usd})] = s
+            for future in cf.as_completed(futures):
+                scenario = futures.pop(future)
+                try:
+                    outcome = future.result()
+                except BrokenProcessPool:
+                    broken.add(scenario.id)
+                except Exception as exc:  # noqa: BLE001 - the worker, not the scenario, failed
+                    self.lost(scenario, f"{type(exc).__name__}: {exc}")
+                else:
+                    self.store.commit(scenario, outcome)
+                    self.summary.counts[outcome["status"]] += 1
+                    self.bar.update(scenario.id, outcome["status"])
+        finally:
+            for future in futures:
+                future.cancel()
+        return [s for s in scenarios if s.id in broken]
+
+    def lost(self, scenario, message: str) -> None:
+        self.summary.lost.append((scenario.id, message))
+        self.bar.update(scenario.id, "lost")
+
+
+def _run_scenarios(runner: _Round, todo: list) -> None:
+    """Run ``todo``, replacing the local pool whenever a worker process dies.
+
+    The pool runs scenarios in submission order, so when it breaks the first (size + 1) it
+    had not finished are the ones that may have been running (or queued in a worker); each
+    of these runs again alone on a fresh pool, so that a break then has one cause and that
+    scenario is reported lost. The rest were waiting: they go round again with the others.
+    """
+    queue, suspects = list(todo), []
+    while queue or suspects:
+        alone = bool(suspects)
+        if alone:
+            scenarios = [suspects.pop(0)]
+        else:
+            scenarios, queue = queue, []
+        broken = runner.run(scenarios)
+        if not broken:
+            continue
+        runner.pool.reopen()
+        if alone:
+            runner.lost(broken[0], "BrokenProcessPool: its worker process died (it ran alone)")
+            continue
+        n = runner.pool.size + 1
+        suspects, queue = suspects + broken[:n], broken[n:] + queue

@@ -527,3 +527,28 @@ class Cutter:
             out[name] = ({"p50_ms": float(np.percentile(v, 50)), "p99_ms": float(np.percentile(v, 99)),
                           "max_ms": float(v.max()), "events": int(len(v))} if len(v) else None)
         return out
+
+    # ----------------------------------------------------------------- opening profile
+    def gap_profile(self, positions: np.ndarray) -> dict:
+        """The opening of every incision along its length: one row per interior station whose
+        two lip nodes are alive.
+
+        Args:
+            positions: Current node positions [m], shape (node_count, 3).
+
+        Returns:
+            ``incision`` (k,) int: index into ``incisions``; ``arc_length_m`` (k,): the
+            station's arc length u along the incision's curve [m]; ``gap_m`` (k,): the distance
+            between the station's left and right lip nodes [m] (the ``pairs`` whose median is
+            ``incision_width``).
+        """
+        active = self.model.active
+        rows = [(n, u, a, b) for n, inc in enumerate(self.incisions)
+                for u, a, b in zip(inc.station_u, inc.left, inc.right)
+                if a >= 0 and b >= 0 and active[a] and active[b]]
+        index = np.array([r[0] for r in rows], dtype=np.int64)
+        u = np.array([r[1] for r in rows], dtype=np.float64)
+        pairs = np.array([r[2:] for r in rows], dtype=np.int64).reshape(-1, 2)
+        x = np.asarray(positions, dtype=np.float64)
+        gap = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
+        return {"incision": index, "arc_length_m": u, "gap_m": gap}

@@ -128,8 +128,10 @@ class TopologyEditor:
 
     def delete_springs(self, slots, *, residual: bool = True, doomed_nodes=()) -> None:
         """Delete springs and the triangles they bound. A deleted spring whose two end nodes
-        survive (are active and not in ``doomed_nodes``) becomes a residual-stress link."""
+        survive (are active and not in ``doomed_nodes``) becomes a residual-stress link
+        (not in the prestress model, where the cut releases the springs' tension instead)."""
         model = self.model
+        residual = residual and model.material.residual_stress_model == "links"
         table = model.spring_table
         pairs = table.column("pairs")
         rest = table.column("rest_length")

@@ -21,7 +21,9 @@ Long runs: memory holds one chunk. Each chunk is written to a temporary name and
 complete, then the top-level file is rewritten the same way to list it and extend endTimeCode,
 so a run killed part-way leaves a stage that plays every frame of its completed chunks. Every
 chunk re-authors the held values (topology, classes, incision, tool height) at its first frame,
-so each chunk file stands alone.
+so each chunk file stands alone. ``flush()`` closes the chunk in progress early (an interactive
+run saving what it has so far) and recording goes on; the clip metadata names each chunk's
+first frame.
 """
 
 from __future__ import annotations
@@ -145,6 +147,8 @@ class UsdRecorder:
         self._chunk = None
         self._chunk_start = 0
         self._chunk_paths: list[str] = []
+        self._chunk_starts: list[int] = []
+        """First frame of each written chunk (a flush can end a chunk early)."""
         self._held: dict = {}
         self._topology = None
         self._last_frame = -1
@@ -238,10 +242,11 @@ class UsdRecorder:
         self._export(self._chunk, self._file(name))
         self._chunk = None
         self._chunk_paths.append(f"./{self.clip_dir.name}/{name}{self.path.suffix}")
+        self._chunk_starts.append(self._chunk_start)
         end = self._last_frame
         clips = Usd.ClipsAPI(self._stage.GetPrimAtPath("/World"))
         clips.SetClipAssetPaths([Sdf.AssetPath(p) for p in self._chunk_paths])
-        clips.SetClipActive([(float(k * self.chunk_frames), float(k)) for k in range(index + 1)])
+        clips.SetClipActive([(float(start), float(k)) for k, start in enumerate(self._chunk_starts)])
         clips.SetClipTimes([(0.0, 0.0), (float(end), float(end))])
         self._stage.SetEndTimeCode(end)
         self._export(self._stage.GetRootLayer(), self.path)
@@ -313,6 +318,11 @@ class UsdRecorder:
             if not np.all(np.isfinite(pts)):
                 raise ValueError("incision_controls holds a non-finite point")
         counts = [] if len(pts) == 0 else [len(pts)]
+        # points every frame the curve exists: a reader interpolates float samples linearly,
+        # so a value held over frames with no sample would show a blend of its neighbours
+        if len(pts):
+            self._held.pop((INCISION, "points"), None)
+            self._held.pop((INCISION, "extent"), None)
         self._set_held(INCISION, "points", frame, pts, lambda: Vt.Vec3fArray.FromNumpy(pts))
         self._set_held(INCISION, "curveVertexCounts", frame, len(pts), lambda: Vt.IntArray(counts))
         self._set_held(INCISION, "extent", frame, pts, lambda: _extent(pts, 0.5 * self._curve_width))
@@ -362,15 +372,20 @@ class UsdRecorder:
         self._tool(sim, frame)
         self.write_time += time.perf_counter() - start
 
+    def flush(self) -> None:
+        """Write the frames recorded so far: the chunk in progress is closed early and the
+        top-level file lists it. Recording may go on (the next frame starts a new chunk)."""
+        start = time.perf_counter()
+        self._close_chunk()
+        self.write_time += time.perf_counter() - start
+
     def finish(self, metrics: dict | None = None) -> None:
         """Write the last chunk and the final top-level file.
 
         Args:
             metrics: If given, gains ``usd_file``, ``usd_frames`` and ``usd_write_time_s`` [s].
         """
-        start = time.perf_counter()
-        self._close_chunk()
-        self.write_time += time.perf_counter() - start
+        self.flush()
         if metrics is not None and self._stage is not None:
             metrics["usd_file"] = str(self.path)
             metrics["usd_frames"] = self.frames_written

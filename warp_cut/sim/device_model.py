@@ -31,6 +31,10 @@ def _columns(model):
     return [
         ("rest_positions", n, lambda idx: n.buffer("points")[idx], wp.vec3),
         ("node_mass", n, lambda idx: n.buffer("masses")[idx], wp.float32),
+        # the lumped area, derived from the lumped mass (mass = density x thickness x area), so
+        # it follows every edit that changes a mass
+        ("node_area", n, lambda idx: n.buffer("masses")[idx] / model.material.areal_density,
+         wp.float32),
         ("node_damping", n, lambda idx: n.buffer("damping")[idx], wp.float32),
         ("node_flags", n, lambda idx: _node_flags(model, idx), wp.int32),
         ("spring_indices", s, lambda idx: s.buffer("pairs")[idx], wp.int32),
@@ -60,6 +64,8 @@ class DeviceModel:
     Attributes:
         rest_positions: Rest positions [m], shape (node capacity,) vec3.
         node_mass: Lumped masses [kg], shape (node capacity,) float32.
+        node_area: Lumped areas [m^2] (mass / (density x thickness)), for the foundation,
+            shape (node capacity,) float32.
         node_damping: Damping D [N s/m], shape (node capacity,) float32.
         node_flags: NODE_ACTIVE | NODE_PINNED bits, shape (node capacity,) int32.
         spring_indices: Spring end nodes, flat, shape (2 * spring capacity,) int32; -1 for dead
@@ -79,6 +85,11 @@ class DeviceModel:
         self.device = device
         self.model = model
         self._allocate()
+
+    @property
+    def foundation_stiffness(self) -> float:
+        """k_f [N/m^3] of the model's support (0: none, the foundation is not compiled)."""
+        return self.model.foundation_stiffness
 
     def _allocate(self) -> None:
         """Upload every column at its table's capacity and forget the tables' changes."""

@@ -17,6 +17,7 @@ from ..errors import InputError
 from ..mesh.geometry import boundary_nodes, edges_of, triangle_areas
 from ..mesh.patch import skin_patch_mesh
 from .material import Material
+from .prestress import prestressed_rest_lengths
 from .slots import SlotTable
 
 __all__ = ["TissueModel", "triangle_edges", "lumped_masses", "boundary_nodes"]
@@ -230,7 +231,9 @@ class TissueModel:
     def from_triangles(cls, points, triangles, *, material: Material | None = None,
                        pinned=None, uniform_mass: float | None = None) -> TissueModel:
         """A surface mesh as a tissue: springs = unique edges, lumped masses from
-        density x thickness x one third of the adjacent triangle areas (or a uniform mass [kg])."""
+        density x thickness x one third of the adjacent triangle areas (or a uniform mass [kg]).
+        With ``material.residual_stress_model == "prestress"`` the rest lengths carry the
+        membrane tension (``apply_prestress``)."""
         material = material or Material()
         pts = np.asarray(points, dtype=np.float64)
         tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
@@ -252,8 +255,11 @@ class TissueModel:
                 )
         if isinstance(pinned, str):
             pinned = cls._pinned_by_rule(pts, tri, pinned)
-        return cls.from_arrays(pts, triangle_edges(tri), masses, pinned=pinned,
-                               triangles=tri, material=material)
+        model = cls.from_arrays(pts, triangle_edges(tri), masses, pinned=pinned,
+                                triangles=tri, material=material)
+        if material.residual_stress_model == "prestress":
+            model.apply_prestress()
+        return model
 
     @classmethod
     def from_surface(cls, surface, *, material: Material | None = None, pinned="border") -> TissueModel:
@@ -351,3 +357,36 @@ class TissueModel:
         eps = np.maximum(eps, 1e-9)
         return self.link_table.append(pairs=pairs, force=self.material.residual_stress * A,
                                       smoothing=eps)
+
+    # ----------------------------------------------------------------- prestress and support
+    def apply_prestress(self, tension: float | None = None) -> None:
+        """Set the rest lengths of the live springs so that the current rest positions are in
+        equilibrium under a uniform membrane tension (``warp_cut.sim.prestress``).
+
+        Args:
+            tension: T [N/m]; default ``material.membrane_tension`` (sigma_r x thickness).
+                0 gives every spring its current length. Call again after changing the
+                stiffness: L0 = L - f / k depends on it.
+
+        Raises:
+            InputError: if the tension is too large for the springs (a rest length <= 0).
+        """
+        T = self.material.membrane_tension if tension is None else float(tension)
+        mat = self.material
+        self.rest_lengths = prestressed_rest_lengths(
+            self.points, self.triangles, self.springs, self.stiffness, T,
+            what=f"the membrane tension (youngs_modulus {mat.youngs_modulus:g} Pa x "
+                 f"residual_strain {mat.residual_strain:g} x thickness {mat.thickness:g} m)")
+
+    @property
+    def foundation_stiffness(self) -> float:
+        """k_f [N/m^3] of the support under the sheet (``material.foundation_stiffness``; 0 = none)."""
+        return float(self.material.foundation_stiffness)
+
+    @property
+    def node_areas(self) -> np.ndarray:
+        """Lumped node areas [m^2], (node_count,): masses / (density x thickness), i.e. one third
+        of the areas of a node's triangles when the masses are lumped (the default, and what a
+        cut recomputes for the nodes it touches); with a uniform mass, the area whose mass the
+        node carries."""
+        return self.masses / self.material.areal_density

@@ -5,7 +5,9 @@ For semi-implicit Euler the linear stability limit of an undamped system is
 ``lambda_max <= max_i R_i / m_i`` with the row sum ``R_i = sum_j k_ij g_ij (1 + [j free])``:
 each spring at node i counts once on the diagonal and once more off it unless its other end is
 pinned; ``g = max(1, |1 - L0 / L|)`` is the geometric factor (the transverse stiffness of a
-stretched or compressed spring), and a residual link counts with its largest stiffness F / eps.
+stretched or compressed spring), a residual link counts with its largest stiffness F / eps, and
+the foundation (a support of stiffness k_f A_i at node i, ``warp_cut.sim.model``) adds k_f A_i
+on the diagonal (once: it joins the node to its fixed rest position).
 With every neighbour free, R_i = 2 S_i (S_i the stiffness sum at node i), so
 
     h_undamped = min_i sqrt(2 m_i / S_i)
@@ -29,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "node_step_limits",
-           "spring_geometric_factor", "RowSums"]
+           "spring_geometric_factor", "foundation_rows", "RowSums"]
 
 
 @dataclass(frozen=True)
@@ -70,11 +72,19 @@ def _add_rows(sums, pairs, k, free, positions=None, rest=None, rows=None) -> Non
         np.add.at(sums, a[keep], (k * (1.0 + free[b]))[keep])
 
 
+def foundation_rows(model, nodes=slice(None)) -> np.ndarray:
+    """The foundation's diagonal k_f A_i [N/m] at ``nodes`` (all by default): 0 without one."""
+    k_f = model.foundation_stiffness
+    masses = model.masses[nodes]  # lumped area = mass / (density x thickness), see node_areas
+    return k_f * masses / model.material.areal_density if k_f > 0 else np.zeros_like(masses)
+
+
 def node_stiffness_sums(model, positions: np.ndarray | None = None) -> np.ndarray:
     """Gershgorin row sums R_i [N/m], (node_count,): springs and residual links at each node,
-    counted twice unless the other end is pinned (see the module docstring)."""
+    counted twice unless the other end is pinned, and the foundation's k_f A_i (see the module
+    docstring)."""
     x = model.points if positions is None else np.asarray(positions, dtype=np.float64)
-    sums = np.zeros(model.node_count)
+    sums = foundation_rows(model).astype(np.float64)
     free = (~model.pinned).astype(np.float64)
     _add_rows(sums, model.springs, model.stiffness, free, x, model.rest_lengths)
     _add_rows(sums, model.links, model.link_force / np.maximum(model.link_smoothing, 1e-30), free)
@@ -154,7 +164,7 @@ class RowSums:
         nodes = np.asarray(sorted(nodes), dtype=np.int64)
         rows = np.zeros(model.node_count, dtype=bool)
         rows[nodes] = model.active[nodes]
-        self.sums[nodes] = 0.0
+        self.sums[nodes] = np.where(rows[nodes], foundation_rows(model, nodes), 0.0)
         free = (~model.pinned).astype(np.float64)
         springs, links = model.spring_table, model.link_table
         s = np.array(sorted({t for v in nodes[rows[nodes]] for t in editor.node_springs[v]}), np.int64)

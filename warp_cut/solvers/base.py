@@ -2,13 +2,22 @@
 
 The solver contract (the Simulator relies on it):
 
-* ``Cls(device_model, gravity=None, residual_stress=True, collision=True)``;
+* ``Cls(device_model, gravity=None, residual_stress=True, collision=True,
+  max_displacement=inf)``; the foundation is on when the model has one
+  (``device_model.foundation_stiffness > 0``);
 * ``step(state_in, state_out, tool, h)`` advances one substep h [s]; ``state_in.forces`` is zero
   on entry and left zero;
 * ``clear_tool_stats()`` and the stats arrays ``tool_force`` (1,) vec3 [N], ``contact_count``
   (1,) int32, ``contact_position_sum`` (1,) vec3 [m], accumulated over substeps;
+* the stability guard ``first_bad`` (1,) int32: the last node pass of every substep lowers it
+  to the index of any active node whose new position is non-finite or farther than
+  ``max_displacement`` [m] from rest (``kernels.diagnostics.report_runaway``; a non-finite
+  velocity makes the position non-finite in the same pass); it stays at ``NO_BAD_NODE`` while
+  all is well and is reset by ``readout.clear_bad_node()``;
+* ``readout``: a ``StepReadout`` of ``first_bad`` and the tool statistics;
 * ``topology_changed()`` after the device arrays were edited in place or reallocated: the
   solver drops its recorded launches and re-derives what it keeps (spring order, valences);
+  ``prepare(state_in, state_out, h)`` records the launches ahead of the next ``step``;
 * ``step_limit(model, positions)`` (class method): the StepLimit the automatic step uses.
 
 Launch dims come from the DeviceModel's counts, read at every step; a change of a count
@@ -17,14 +26,18 @@ records new launches.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import warp as wp
 
 from ..kernels.collision import clear_tool_stats
+from ..kernels.diagnostics import displacement_limit_sq
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
 from ..sim.stability import StepLimit, stable_time_step
 from .launches import LaunchSequence
+from .readout import NO_BAD_NODE, StepReadout
 
 __all__ = ["SolverBase", "CPU_CHUNK"]
 
@@ -41,14 +54,19 @@ class SolverBase:
         residual_stress: launch the residual-link forces when the model has links.
         collision: run the tool test and push-out when a tool is given.
         replay: how recorded launches are replayed, see ``launches.REPLAY_MODES``.
+        max_displacement: the stability guard flags a node farther than this from rest [m]
+            (inf: non-finite states only).
     """
 
     def __init__(self, model: DeviceModel, *, gravity=None, residual_stress: bool = True,
-                 collision: bool = True, replay: str = "auto"):
+                 collision: bool = True, replay: str = "auto", max_displacement: float = math.inf):
         self.model = model
         self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
         self.residual_stress = bool(residual_stress)
         self.collision = bool(collision)
+        self.foundation_stiffness = float(model.foundation_stiffness)
+        """k_f [N/m^3] of the model's support; 0: the foundation is neither launched nor compiled."""
+        self.foundation = self.foundation_stiffness > 0.0
         self.replay = replay
         device = model.device
         self.device = device
@@ -56,6 +74,10 @@ class SolverBase:
         self.tool_force = wp.zeros(1, dtype=wp.vec3, device=device)
         self.contact_count = wp.zeros(1, dtype=wp.int32, device=device)
         self.contact_position_sum = wp.zeros(1, dtype=wp.vec3, device=device)
+        self.max_displacement = float(max_displacement)
+        self.first_bad = wp.full(1, NO_BAD_NODE, dtype=wp.int32, device=device)
+        self.readout = StepReadout(self.first_bad, self.tool_force, self.contact_count,
+                                   self.contact_position_sum)
         self.tool_pose = wp.zeros(3, dtype=wp.vec3, device=device)
         """p0 [m], p1 [m], (radius [m], 0, 0) of the current tool; radius 0 = no tool."""
         self._tool_host = np.zeros((3, 3), dtype=np.float32)
@@ -75,6 +97,10 @@ class SolverBase:
         return stable_time_step(model, positions)
 
     def clear_tool_stats(self) -> None:
+        """Zero the tool statistics (before the first substep of a step)."""
+        if self.readout.views:  # host memory: zeroed in place, no launch
+            self.readout.clear_tool_stats()
+            return
         if self._clear_stats is None:
             self._clear_stats = wp.launch(
                 clear_tool_stats, dim=1, device=self.device, record_cmd=True,
@@ -90,15 +116,28 @@ class SolverBase:
     def step(self, state_in, state_out, tool: Tool | None, h: float) -> None:
         """Advance by one substep h [s]."""
         self._set_tool(tool)
-        m = self.model
-        key = (state_in.positions.ptr, state_out.positions.ptr, float(h), m.node_count,
-               m.spring_count, m.link_count)
-        sequence = self._sequences.get(key)
+        sequence = self._sequences.get(self._key(state_in, state_out, h))
         if sequence is None:
-            sequence = LaunchSequence(self.device, self.replay)
-            self._record(sequence, state_in, state_out, float(h))
-            self._sequences[key] = sequence.finalize()
+            sequence = self.prepare(state_in, state_out, h)
         sequence.launch()
+
+    def prepare(self, state_in, state_out, h: float) -> LaunchSequence:
+        """Record the launches of a substep from ``state_in`` to ``state_out`` now (``step``
+        would on first use) and return them. The states ping-pong, so the swapped pair is
+        recorded too: a new recording (the first step, a cut) lengthens one step, not two."""
+        for a, b in ((state_out, state_in), (state_in, state_out)):
+            key = self._key(a, b, h)
+            if key not in self._sequences:
+                sequence = LaunchSequence(self.device, self.replay)
+                self._record(sequence, a, b, float(h))
+                self._sequences[key] = sequence.finalize()
+        return self._sequences[self._key(state_in, state_out, h)]
+
+    def _key(self, state_in, state_out, h: float) -> tuple:
+        """What a recorded sequence depends on: the state buffers, h and the model's counts."""
+        m = self.model
+        return (state_in.positions.ptr, state_out.positions.ptr, float(h), m.node_count,
+                m.spring_count, m.link_count)
 
     # ------------------------------------------------------------------ helpers
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
@@ -146,6 +185,13 @@ class SolverBase:
     def threads(self, count: int) -> int:
         """Launch dim for ``count`` items at ``self.chunk`` items per thread."""
         return -(-int(count) // self.chunk)
+
+    def guard_inputs(self, rest: bool = True) -> list:
+        """The stability guard's arguments, appended to each integrator's last node pass:
+        rest_positions (unless ``rest`` is False: the semi-implicit node pass has them
+        already), max_displacement_sq [m^2], first_bad."""
+        limit = [displacement_limit_sq(self.max_displacement), self.first_bad]
+        return ([self.model.rest_positions] if rest else []) + limit
 
     def _set_tool(self, tool: Tool | None) -> None:
         if not self.collision or tool is self._last_tool:

@@ -33,14 +33,14 @@ class ImplicitEulerSolver(SolverBase):
 
     def __init__(self, model, *, gravity=None, residual_stress: bool = True,
                  collision: bool = True, replay: str = "auto", cg_iterations: int = 40,
-                 cg_tolerance: float = 1e-4):
+                 cg_tolerance: float = 1e-4, max_displacement: float = math.inf):
         self.cg_iterations = int(cg_iterations)
         self.cg_tolerance = float(cg_tolerance)
         device = model.device
         self.cg = wp.zeros((self.cg_iterations + 1, 2), dtype=wp.float64, device=device)
         """CG scalars per iteration: r.z and p.Ap."""
         super().__init__(model, gravity=gravity, residual_stress=residual_stress,
-                         collision=collision, replay=replay)
+                         collision=collision, replay=replay, max_displacement=max_displacement)
 
     @classmethod
     def step_limit(cls, model, positions=None) -> StepLimit:
@@ -84,19 +84,25 @@ class ImplicitEulerSolver(SolverBase):
                          k_iter, tol2, v["ap"], v["diagonal"]])
 
         stiffness_product(state_in.velocities, -1)  # also accumulates the diagonal
-        seq.add(K.cg_start, nt,
-                [state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags, h,
+        seq.add(K.cg_start_kernel(self.foundation), nt,
+                [state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags, x_in,
+                 m.rest_positions, m.node_area, self.foundation_stiffness, h,
                  chunk, n, v["ap"], v["diagonal"], v["x"], v["r"], v["z"], v["p"],
                  v["inv_diagonal"], self.cg])
+        curvature = K.cg_curvature_kernel(self.foundation)
         for k in range(self.cg_iterations):
             stiffness_product(v["p"], k)
-            seq.add(K.cg_curvature, nt, [v["p"], m.node_mass, m.node_damping, m.node_flags, h,
-                                         k, tol2, chunk, n, v["ap"], self.cg])
+            seq.add(curvature, nt, [v["p"], m.node_mass, m.node_damping, m.node_flags,
+                                    m.node_area, self.foundation_stiffness, h, k, tol2, chunk, n,
+                                    v["ap"], self.cg])
             seq.add(K.cg_descend, nt, [v["p"], v["inv_diagonal"], k, tol2, chunk, n, v["ap"],
                                        v["x"], v["r"], v["z"], self.cg])
             seq.add(K.cg_direction, nt, [v["z"], k, tol2, chunk, n, v["p"], self.cg])
+        # the guard runs here; the push-out below moves a finite node by at most the tool
+        # radius, with finite inertia, so it cannot make a finite state non-finite
         seq.add(K.implicit_advance, nt, [x_in, v["x"], m.node_flags, h, chunk, n,
-                                         state_out.positions, state_out.velocities])
+                                         state_out.positions, state_out.velocities]
+                + self.guard_inputs())
         if self.collision:
             seq.add(cylinder_push_out, n,
                     [state_out.positions, state_out.velocities, m.node_mass, m.node_damping,

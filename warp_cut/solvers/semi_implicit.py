@@ -1,4 +1,4 @@
-"""Semi-implicit Euler: springs, residual links, gravity, implicit damping, tool push-out."""
+"""Semi-implicit Euler: springs, residual links, gravity, foundation, implicit damping, tool push-out."""
 
 from __future__ import annotations
 
@@ -14,13 +14,15 @@ __all__ = ["SemiImplicitSolver"]
 
 
 class SemiImplicitSolver(SolverBase):
-    """Semi-implicit Euler (springs, residual links, gravity, implicit damping, tool push-out).
+    """Semi-implicit Euler (springs, residual links, gravity, foundation, implicit damping,
+    tool push-out).
 
     Two launches per substep on a model without links: the spring forces, then one pass over
-    the nodes that adds gravity, integrates, pushes nodes out of the tool and clears the force
-    accumulator (``kernels.integrate``). Conditionally stable: see ``warp_cut.sim.stability``.
+    the nodes that adds gravity and the foundation, integrates, pushes nodes out of the tool
+    and clears the force accumulator (``kernels.integrate``). Conditionally stable: see
+    ``warp_cut.sim.stability``.
     tool_force (1,) vec3 [N], contact_count (1,) int32 and contact_position_sum (1,) vec3 [m]
-    accumulate over substeps until ``clear_tool_stats``.
+    accumulate over substeps until ``clear_tool_stats``; the node pass runs the stability guard.
     """
 
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
@@ -32,10 +34,11 @@ class SemiImplicitSolver(SolverBase):
         if self.residual_stress and m.link_count:
             seq.add(residual_link_forces, m.link_count,
                     [state_in.positions, m.link_indices, m.link_force, m.link_smoothing, forces])
-        node = integrate_kernel(self.gravity is not None, self.collision)
+        node = integrate_kernel(self.gravity is not None, self.collision, self.foundation)
         seq.add(node, self.threads(m.node_count),
                 [state_in.positions, state_in.velocities, forces, m.node_mass, m.node_damping,
                  m.node_flags, self.gravity if self.gravity is not None else wp.vec3(0.0),
-                 self.tool_pose, h, self.chunk, m.node_count, state_out.positions,
-                 state_out.velocities, self.tool_force, self.contact_count,
-                 self.contact_position_sum])
+                 m.rest_positions, m.node_area, self.foundation_stiffness, self.tool_pose, h,
+                 self.chunk, m.node_count, state_out.positions, state_out.velocities,
+                 self.tool_force, self.contact_count, self.contact_position_sum]
+                + self.guard_inputs(rest=False))

@@ -10,11 +10,11 @@ import warp as wp
 from ..kernels import xpbd as K
 from ..kernels.residual import residual_link_forces
 from ..kernels.xpbd import spring_valence
-from ..sim.stability import StepLimit, stable_time_step
+from ..sim.stability import StepLimit, node_stiffness_sums, stable_time_step
 from .base import SolverBase
 from .launches import LaunchSequence
 
-__all__ = ["XPBDSolver"]
+__all__ = ["XPBDSolver", "xpbd_step_limits"]
 
 
 class XPBDSolver(SolverBase):
@@ -27,12 +27,27 @@ class XPBDSolver(SolverBase):
 
     @classmethod
     def step_limit(cls, model, positions=None) -> StepLimit:
-        """The limit of the explicit part alone: residual links (infinite without links)."""
-        if not model.link_count:
+        """The limit of the explicit part alone: residual links and the foundation (infinite
+        without either).
+
+        XPBD damps after the solve, so the explicit prediction ``x + h v + h^2 f / m`` is not
+        damped within its own step, and damping lowers the limit instead of raising it as in
+        semi-implicit Euler: see ``xpbd_step_limits``.
+        """
+        if not model.link_count and model.foundation_stiffness <= 0:
             explicit = stable_time_step(model, positions)
             return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
         links_only = _LinksOnly(model)
-        return stable_time_step(links_only, positions)
+        undamped = stable_time_step(links_only, positions, include_damping=False)
+        sums = node_stiffness_sums(links_only, positions)
+        rows = ~model.pinned & model.active & (sums > 0)
+        if not rows.any():
+            return undamped
+        m = model.masses[rows]
+        steps = xpbd_step_limits(sums[rows] / m, model.damping[rows] / m)
+        k = int(np.argmin(steps))
+        return StepLimit(float(steps[k]), undamped.undamped_step, int(np.flatnonzero(rows)[k]),
+                         undamped.omega_max)
 
     def _derive(self) -> None:
         super()._derive()
@@ -56,9 +71,10 @@ class XPBDSolver(SolverBase):
             seq.add(residual_link_forces, m.link_count,
                     [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
         gravity = self.gravity if self.gravity is not None else wp.vec3(0.0)
-        seq.add(K.predict_kernel(self.gravity is not None), nt,
+        seq.add(K.predict_kernel(self.gravity is not None, self.foundation), nt,
                 [x_in, state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags,
-                 gravity, h, chunk, n, state_out.positions])
+                 gravity, m.rest_positions, m.node_area, self.foundation_stiffness, h, chunk, n,
+                 state_out.positions])
         indices, rest, stiffness, count = self.spring_arrays()
         seq.add(K.distance_constraints, self.threads(count),
                 [state_out.positions, indices, rest, stiffness, m.node_mass, m.node_flags,
@@ -67,11 +83,33 @@ class XPBDSolver(SolverBase):
                 [x_in, m.node_mass, m.node_damping, m.node_flags, self._stiffness_sum,
                  self.tool_pose, h, chunk, n,
                  self._delta, state_out.positions, state_out.velocities, self.tool_force,
-                 self.contact_count, self.contact_position_sum])
+                 self.contact_count, self.contact_position_sum] + self.guard_inputs())
+
+
+def xpbd_step_limits(omega2: np.ndarray, damping_rate: np.ndarray) -> np.ndarray:
+    """Stable XPBD substeps [s] of the explicit forces, per node.
+
+    For a mode of frequency omega (``omega2`` = omega^2 [1/s^2], the Gershgorin bound R / m)
+    and damping rate c = D / m [1/s], one substep maps (x, h v) to
+    ``x' = (1 - h^2 omega^2) x + h v`` and ``h v' = a (x' - x)``, a = 1 / (1 + h c): trace
+    1 - h^2 omega^2 + a, determinant a. It is stable while ``h^2 omega^2 <= 2 (1 + a)``:
+    2 / omega without damping, down to sqrt(2) / omega for heavy damping. The root of
+    h^2 omega^2 (1 + h c) = 2 (2 + h c), the only positive one, is found by bisection
+    between those two.
+    """
+    omega2 = np.asarray(omega2, dtype=np.float64)
+    c = np.asarray(damping_rate, dtype=np.float64)
+    lo, hi = np.sqrt(2.0 / omega2), 2.0 / np.sqrt(omega2)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        unstable = mid * mid * omega2 * (1.0 + mid * c) > 2.0 * (2.0 + mid * c)
+        lo, hi = np.where(unstable, lo, mid), np.where(unstable, mid, hi)
+    return lo
 
 
 class _LinksOnly:
-    """A view of a model without its springs, for the explicit (link) part of the step limit."""
+    """A view of a model without its springs, for the explicit (link and foundation) part of
+    the step limit."""
 
     def __init__(self, model):
         self._model = model

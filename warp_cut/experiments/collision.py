@@ -29,13 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .io.files import atomic_path, write_csv
-from .io.plots import new_figure, save_figure
-from .sim.control import ToolPath
-from .sim.material import Material
-from .sim.model import TissueModel
-from .simulator import Simulator
+from ..errors import InputError
+from ..io.files import atomic_path, write_csv
+from ..io.plots import new_figure, save_figure
+from ..sim.control import ToolPath
+from ..sim.material import Material
+from ..sim.model import TissueModel
+from ..simulator import Simulator
 
 __all__ = ["CollisionCase", "analytic_first_contact", "run_case", "run_experiment",
            "write_report", "PAPER_MEAN_RELATIVE_ERROR_PCT"]

@@ -1,0 +1,214 @@
+"""Haptic rate: every 1 ms tick on time? The README's loop, one ``sim.step(tool=...)`` per tick.
+
+    python benchmarks/bench_haptic.py [--quick] [--cpu N]
+
+The loop of the README (10 x 6 cm patch, Table 1 material, a 60 degree scalpel going 8 mm in
+along its axis over 0.2 s, then cutting at 2 cm/s for 2 s) on the straight incision and on the
+curved one of ``scenes/curved_incision.toml`` (y = 8 mm sin(pi x / 2 cm)), at 2 mm and 1 mm
+spacing, with and without cutting. Each tick is timed around the ``step`` call alone (the Tool
+is built outside, it is the caller's), in wall time and in the thread's CPU time (the
+difference is time the machine gave other processes). The collector is frozen after set-up,
+as ``docs/haptic.md`` advises for a haptic loop.
+
+Then, without cutting, the per-call overhead: a loop of single-step calls with a new Tool per
+call against one ``step(n, tool=...)`` call over the same poses, on two simulators advancing in
+lockstep, samples interleaved; the ratio of the medians of the per-step times.
+
+The process is pinned to one CPU (``--cpu``, default the last this process may use): Warp runs
+CPU kernels on one thread, and the targets are for one core. Writes results/haptic.csv and
+results/haptic.md; --quick: 2 mm only, shorter loops (a smoke run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from contextlib import contextmanager
+
+import numpy as np
+from common import markdown_table, write_csv, write_markdown
+
+import warp_cut as wc
+from warp_cut.ticks import TickLog, frozen_gc
+
+AXIS = np.array([-0.5, 0.0, 0.866])
+"""The scalpel's axis from tip to handle: leaning back 60 degrees along -x."""
+APPROACH_TICKS = 200
+"""Ticks of the approach: 8 mm in along the axis."""
+SPEED_TICK = 2e-5
+"""Travel along x per 1 ms tick [m] (2 cm/s)."""
+RADIUS = 0.001
+
+
+def tip_at(k: int, curved: bool) -> np.ndarray:
+    """The tool tip [m] at tick k: the README's path, or its S-curved variant."""
+    depth = min(k, APPROACH_TICKS) / APPROACH_TICKS * 0.008
+    travel = SPEED_TICK * max(k - APPROACH_TICKS, 0)
+    tip = np.array([-0.02, 0.0, 0.004]) - depth / 0.866 * AXIS + [travel, 0.0, 0.0]
+    if curved:
+        x = -0.02 + travel  # along the curve's x, from -2 cm to +2 cm
+        tip[1] = 0.008 * np.sin(np.pi * x / 0.02)
+    return tip
+
+
+def tools(ticks: int, curved: bool) -> list:
+    return [wc.Tool(p0=tip, p1=tip + 0.04 * AXIS, radius=RADIUS)
+            for tip in (tip_at(k, curved) for k in range(ticks))]
+
+
+def tick_run(spacing: float, curved: bool, cutting: bool, ticks: int) -> dict:
+    """The README's loop for ``ticks`` ticks; one table row."""
+    model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=spacing)
+    nodes = model.node_count
+    sim = wc.Simulator(model, dt=1e-3, cutting=cutting)
+    poses = tools(ticks, curved)
+    log = TickLog(ticks, budget=sim.dt, cpu_time=True)
+    with frozen_gc():
+        start = time.perf_counter()
+        for tool in poses:
+            log.step(sim, tool)
+        wall = time.perf_counter() - start
+    t, cpu, jump = log.tick_metrics(), log.tick_metrics(cpu=True), log.force_jump_metrics()
+    return {"path": "curved" if curved else "straight", "spacing_mm": spacing * 1e3,
+            "nodes": nodes, "nodes_end": model.active_node_count, "substeps": sim.substeps,
+            "cutting": "yes" if cutting else "no", "ticks": t["ticks"], "tick_first_ms": t["first_ms"],
+            "tick_p50_ms": t["p50"], "tick_p99_ms": t["p99"], "tick_max_ms": t["max"],
+            "ticks_over_1ms": t["over_budget"], "cpu_p99_ms": cpu["p99"], "cpu_max_ms": cpu["max"],
+            "cpu_over_1ms": cpu["over_budget"], "realtime_factor": ticks * sim.dt / wall,
+            "force_jump_max_n": jump["max"], "force_jump_p99_n": jump["p99"],
+            "force_jump_after_cut_n": jump["max_after_cut"] if jump["max_after_cut"] is not None else "",
+            "cut_ticks": jump["cut_ticks"]}
+
+
+def _timed(fn, *args) -> tuple[float, float]:
+    """(wall, CPU) seconds of ``fn(*args)``."""
+    wall, cpu = time.perf_counter(), time.thread_time()
+    fn(*args)
+    return time.perf_counter() - wall, time.thread_time() - cpu
+
+
+def _single_calls(sim, poses) -> None:
+    for tool in poses:
+        sim.step(tool=tool)
+
+
+def call_overhead(spacing: float, chunk: int, repeats: int) -> dict:
+    """Per-step time of single-step calls over that of batched calls, no cutting.
+
+    Two simulators step the same poses in lockstep; in each repeat one makes ``chunk``
+    single-step calls (a new Tool each) and the other one ``step(chunk, tool=...)`` call with
+    a callable handing out the same Tools (the cheapest way to give a batched call a new pose
+    per step: a ToolPath's interpolation costs ~10 us a step more). The roles swap every
+    repeat, so neither simulator's memory placement favours one side.
+    """
+    model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=spacing)
+    warm = APPROACH_TICKS + 50  # past first contact: the steady cutting-speed regime
+    poses = tools(warm + repeats * chunk + 1, curved=False)
+    sims = [wc.Simulator(model, dt=1e-3), wc.Simulator(model, dt=1e-3)]
+
+    def pose(t):  # the pose for the end of the step ending at t [s]
+        return poses[max(round(t * 1e3) - 1, 0)]
+
+    for sim in sims:
+        sim.step(warm, tool=pose)
+    samples = {"single": [], "batched": []}
+    with frozen_gc():
+        for r in range(repeats):
+            single, batched = sims[r % 2], sims[1 - r % 2]
+            k = warm + r * chunk
+            samples["single"].append(_timed(_single_calls, single, poses[k:k + chunk]))
+            samples["batched"].append(_timed(batched.step, chunk, pose))
+    s, b = (np.array(samples[k]) / chunk for k in ("single", "batched"))
+    assert np.allclose(sims[0].positions, sims[1].positions, atol=1e-7), "the two loops diverged"
+    return {"spacing_mm": spacing * 1e3, "nodes": model.node_count, "steps_per_sample": chunk,
+            "repeats": repeats, "per_call_ms": float(np.median(s[:, 0]) * 1e3),
+            "batched_ms": float(np.median(b[:, 0]) * 1e3),
+            "ratio_wall": float(np.median(s[:, 0]) / np.median(b[:, 0])),
+            "ratio_cpu": float(np.median(s[:, 1]) / np.median(b[:, 1])),
+            "per_call_cpu_ms": float(np.median(s[:, 1]) * 1e3),
+            "batched_cpu_ms": float(np.median(b[:, 1]) * 1e3)}
+
+
+@contextmanager
+def pinned_to(cpu: int | None):
+    """Run the block pinned to one CPU (the last allowed when None); yields it, or None where
+    affinity cannot be set. The previous affinity is restored after."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield None
+        return
+    before = os.sched_getaffinity(0)
+    cpu = max(before) if cpu is None else cpu
+    os.sched_setaffinity(0, {cpu})
+    try:
+        yield cpu
+    finally:
+        os.sched_setaffinity(0, before)
+
+
+TICK_COLUMNS = ["path", "spacing_mm", "nodes", "nodes_end", "cutting", "substeps", "tick_first_ms",
+                "tick_p50_ms", "tick_p99_ms", "tick_max_ms", "ticks_over_1ms", "cpu_p99_ms", "cpu_max_ms",
+                "cpu_over_1ms", "realtime_factor", "force_jump_max_n", "force_jump_p99_n",
+                "force_jump_after_cut_n", "cut_ticks"]
+
+
+def run(quick: bool = False, cpu: int | None = None):
+    with pinned_to(cpu) as pinned:
+        return _run(quick, pinned)
+
+
+def _run(quick: bool, pinned: int | None):
+    load_before = os.getloadavg()
+    spacings = (0.002,) if quick else (0.002, 0.001)
+    ticks = 600 if quick else 2200
+    rows = []
+    for spacing in spacings:
+        for curved in (False, True):
+            for cutting in (False, True):
+                row = tick_run(spacing, curved, cutting, ticks)
+                rows.append(row)
+                print(f"  {row['path']} {row['spacing_mm']:g} mm cutting={row['cutting']}: tick p50 "
+                      f"{row['tick_p50_ms']:.3f} p99 {row['tick_p99_ms']:.2f} max {row['tick_max_ms']:.1f} ms, "
+                      f"{row['ticks_over_1ms']} over 1 ms (cpu p99 {row['cpu_p99_ms']:.2f}), "
+                      f"force jump {row['force_jump_max_n']:.3g} N", flush=True)
+    overhead = [call_overhead(s, chunk=100 if quick else 150, repeats=5 if quick else 11)
+                for s in spacings]
+    for o in overhead:
+        print(f"  per-call / batched at {o['spacing_mm']:g} mm: {o['ratio_wall']:.3f} wall, "
+              f"{o['ratio_cpu']:.3f} cpu ({o['per_call_ms']:.3f} vs {o['batched_ms']:.3f} ms)", flush=True)
+    load_after = os.getloadavg()
+    write_csv("haptic", rows)
+    write_csv("haptic_call_overhead", overhead)
+    write_markdown("haptic", "Haptic rate: the README's 1 kHz loop", _report(rows, overhead, pinned,
+                                                                         load_before, load_after))
+    return rows, overhead
+
+
+def _report(rows, overhead, pinned, load_before, load_after) -> str:
+    load = (f"Pinned to CPU {pinned} of {os.cpu_count()}; load average (1, 5, 15 min) "
+            f"{', '.join(f'{v:.2f}' for v in load_before)} before and "
+            f"{', '.join(f'{v:.2f}' for v in load_after)} after: a load above 1 per core means "
+            "other processes shared the CPU, which shows as wall time above CPU time.")
+    return "\n\n".join([
+        "One `sim.step(tool=wc.Tool(...))` per 1 ms tick, timed around the call (wall time, and the "
+        "thread's CPU time `cpu_*`); budget 1 ms. Percentiles, max and counts over the ticks after "
+        "the first (`tick_first_ms`: it loads the kernels and records the launches). 200 ticks "
+        "going 8 mm in, then 2 cm/s along x (straight, or on y = 8 mm sin(pi x / 2 cm)); "
+        "collector frozen after set-up. "
+        "`force_jump_*`: tick-to-tick change of the tool force [N]; `_after_cut`: into the tick "
+        "that follows a topology edit.", load,
+        markdown_table(rows, TICK_COLUMNS),
+        "## Per-call overhead, no cutting\n\nSingle-step calls with a new Tool each against one "
+        "`step(n, tool=callable)` call handing out the same Tools (two simulators in lockstep, "
+        "past first contact, roles swapped every sample), median per-step time [ms] of "
+        "interleaved samples, wall and CPU; target ratio <= 1.2.",
+        markdown_table(overhead),
+        "Command: `python benchmarks/bench_haptic.py` (part of `make bench`)."])
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="2 mm only, shorter loops")
+    parser.add_argument("--cpu", type=int, default=None, help="CPU to pin to (default: the last allowed)")
+    args = parser.parse_args()
+    run(quick=args.quick, cpu=args.cpu)
