@@ -129,6 +129,14 @@ class CutHost(Protocol):
         """Mirror the model's latest edit on the device and update the stable step."""
 
 
+def _inside_tool(point, tool: Tool, margin: float = 1.02) -> bool:
+    """True if ``point`` [m] lies within the tool's cylinder (radius widened by ``margin``)."""
+    axis = tool.p1 - tool.p0
+    t = float(np.dot(point - tool.p0, axis)) / max(float(axis @ axis), 1e-300)
+    closest = tool.p0 + min(max(t, 0.0), 1.0) * axis
+    return 0.0 <= t <= 1.0 and float(np.linalg.norm(point - closest)) < margin * tool.radius
+
+
 def _crosses(x: np.ndarray, pairs: np.ndarray, a, b, normal) -> np.ndarray:
     """Mask (s,) of node pairs (s, 2) on either side of the cut line a-b in the surface whose
     outward normal is ``normal`` (a pair on one side is not separated by the cut)."""
@@ -319,15 +327,28 @@ class Cutter:
         return self.current
 
     def end_incision(self, sim: CutHost) -> None:
-        """Finish the current incision (the next cut starts a new one); a hole still open
-        waiting for better geometry is filled now, slivers or not."""
+        """Finish the current incision (the next cut starts a new one). The tool has gone, so
+        the stretch it covered is given its lips now: the slit's end node moves to the curve's
+        end, the stations reach to half a spacing from it and the region around the end is
+        re-meshed; a hole still open waiting for better geometry is filled now, slivers or
+        not."""
         inc = self.current
         self.current = None
-        if inc is not None and inc.open_chains:
-            self.editor.begin()
-            report, result, positions = self._stage3(sim, inc, None, {}, defer_slivers=False)
-            self._apply(sim, report, positions)
-            self._count(report, result)
+        if inc is None or len(inc.path) < 2:
+            return
+        self.editor.begin()
+        end = inc.end_node if inc.end_node >= 0 and self.model.active[inc.end_node] else -1
+        if end >= 0:
+            self.editor.delete_springs(list(self.editor.node_springs[end]), residual=False)
+            self.editor.delete_triangles(list(self.editor.node_triangles[end]))
+        inc.plan_stations(clearance=0.5 * self.spacing)
+        moved = self._place_end(inc, end, inc.length, None)
+        if not (self.editor.report.deleted_triangle_corners or inc.open_chains):
+            self.editor.finish()
+            return
+        report, result, positions = self._stage3(sim, inc, None, moved, defer_slivers=False)
+        self._apply(sim, report, positions)
+        self._count(report, result)
 
     def _positions_view(self, sim: CutHost) -> np.ndarray:
         # zero-copy on the CPU; a copy from a GPU
@@ -348,15 +369,14 @@ class Cutter:
         end = self._sweep(sim, inc, inc.path[-1], point, inc.normals[-1] if normal is None else normal)
         t1 = time.perf_counter()
         inc.extend(point, min_step=0.0, normal=normal)
-        inc.plan_stations()
-        moved = {}
-        if end >= 0:  # the slit's end node moves on with the tool
-            self.editor.move_node(end, point)
-            moved[end] = point
+        behind = self._footprint(sim.tool_pose, inc)
+        inc.plan_stations(clearance=max(0.5 * self.spacing, behind + 0.25 * self.spacing))
+        moved = self._place_end(inc, end, inc.length - behind, sim.tool_pose)
         self.contact_path.append(point)
         t2 = time.perf_counter()
         # a sliver may wait a few events for better geometry, not forever
-        report, result, positions = self._stage3(sim, inc, point, moved, defer_slivers=inc.deferrals < 3)
+        report, result, positions = self._stage3(sim, inc, point, moved, defer_slivers=inc.deferrals < 3,
+                                                 tool=sim.tool_pose)
         t3 = time.perf_counter()
         self._apply(sim, report, positions)
         t4 = time.perf_counter()
@@ -364,6 +384,30 @@ class Cutter:
             self.latency_ms[name].append(1e3 * dt)
         self.totals["events"] += 1
         self._count(report, result)
+
+    @staticmethod
+    def _footprint(tool: Tool | None, inc: Incision) -> float:
+        """How far behind the axis's crossing the tool reaches along the skin [m]: r / sin(a),
+        a the axis's angle to the skin (r without a tool)."""
+        if tool is None or not tool.length > 0:
+            return inc.sweep_radius
+        sin_a = abs(float(np.dot(tool.p1 - tool.p0, inc.normals[-1]))) / tool.length
+        return inc.sweep_radius / max(sin_a, 0.25)
+
+    def _place_end(self, inc: Incision, end: int, u: float, tool: Tool | None) -> dict:
+        """Put the slit's end node at arc length ``u`` [m] (not before the last station), moved
+        back along the curve until it is clear of the tool; returns {node: position} (empty
+        without an end node)."""
+        low = (inc.station_u[-1] + 0.25 * self.spacing) if inc.station_u else 0.0
+        u = min(max(u, low), inc.length)
+        while tool is not None and u > low and _inside_tool(inc.point_at(u)[0], tool):
+            u = max(low, u - 0.1 * self.spacing)
+        inc.end_u = u
+        if end < 0:
+            return {}
+        point = inc.point_at(u)[0]
+        self.editor.move_node(end, point)
+        return {end: point}
 
     def _sweep(self, sim: CutHost, inc: Incision, a: np.ndarray, b: np.ndarray, normal) -> int:
         """Stage 1: delete what the capsule a-b (the swept circle) touches: the nodes inside
@@ -400,7 +444,8 @@ class Cutter:
     def _index_array(self, idx) -> wp.array:
         return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.device)
 
-    def _stage3(self, sim: CutHost, inc: Incision, point, moved: dict, *, defer_slivers: bool):
+    def _stage3(self, sim: CutHost, inc: Incision, point, moved: dict, *, defer_slivers: bool,
+                tool: Tool | None = None):
         """Re-mesh the grey area of the current edit and the holes left open before, finish the
         edit and carry the residual links of deleted nodes. Returns (edit report, fill result,
         positions)."""
@@ -408,11 +453,12 @@ class Cutter:
         positions = NodePositions(self._positions_view(sim))
         for v, p in moved.items():
             positions[v] = p
-        result = {"created": [], "yellow": [], "blue": [], "unfilled": []}
+        result = {"created": [], "yellow": [], "blue": [], "unfilled": [], "under_tool": False}
         if editor.report.deleted_triangle_corners or inc.open_chains:
             result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions,
-                               inc.open_chains, defer_slivers=defer_slivers)
-        inc.deferrals = inc.deferrals + 1 if result["unfilled"] else 0
+                               inc.open_chains, defer_slivers=defer_slivers, tool=tool)
+        # a hole waiting for the tool to move on does not count against the sliver deferrals
+        inc.deferrals = inc.deferrals + 1 if result["unfilled"] and not result["under_tool"] else 0
         inc.open_chains = result["unfilled"]  # retried at the next event
         report = editor.finish()
         self._carry_links(inc, report, positions)

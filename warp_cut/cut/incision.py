@@ -90,6 +90,9 @@ class Incision:
         self.right: list[int] = []
         self.start_node = -1
         self.end_node = -1
+        self.end_u = 0.0
+        """Arc length [m] where the slit's end node sits: the curve's end once the tool has
+        gone, just behind the tool's footprint while it cuts."""
         self.sweep_radius = 0.0
         """Radius of the swept circle [m] (set by the Cutter)."""
         self.anchor = -1
@@ -200,12 +203,14 @@ class Incision:
         return np.where(np.asarray(side) > 0, u, 2.0 * self.length - u)
 
     # ----------------------------------------------------------------- stations
-    def plan_stations(self) -> None:
-        """Add interior stations every ``spacing``, keeping the last one at least half a spacing
-        and 1.5 sweep radii behind the end: a lip is made once the tool (whose footprint on a
-        tilted surface reaches r / sin(angle) ahead and behind) has passed it."""
+    def plan_stations(self, clearance: float | None = None) -> None:
+        """Add interior stations every ``spacing``, keeping the last one at least ``clearance``
+        [m] behind the end (default: half a spacing and 1.5 sweep radii): a lip is made once
+        the tool (whose footprint on a tilted surface reaches r / sin(angle) behind the axis)
+        has passed it."""
         last = self.station_u[-1] if self.station_u else 0.0
-        clearance = max(0.5 * self.spacing, 1.5 * self.sweep_radius)
+        if clearance is None:
+            clearance = max(0.5 * self.spacing, 1.5 * self.sweep_radius)
         while self.length - (last + self.spacing) >= clearance:
             last += self.spacing
             self.station_u.append(last)

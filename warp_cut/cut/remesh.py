@@ -258,7 +258,7 @@ class _LipSlots:
             if node < 0:
                 key = (station, side)
                 if key not in here:
-                    u = inc.station_u[station] if station >= 0 else (0.0 if station == -1 else inc.length)
+                    u = inc.station_u[station] if station >= 0 else (0.0 if station == -1 else inc.end_u)
                     point = inc.lip_position(u, side)
                     here[key] = self._snap(spare, point, side, snap) if station >= 0 else -1
                     if here[key] < 0:
@@ -292,6 +292,19 @@ class _LipSlots:
         if best >= 0:
             del spare[best]
         return best
+
+    def proposed_inside(self, tool) -> bool:
+        """True if a proposed new lip node lies inside the tool's cylinder."""
+        axis = tool.p1 - tool.p0
+        length2 = max(float(axis @ axis), 1e-300)
+        for ph in self._proposed:
+            if ph < _PLACEHOLDER:
+                continue
+            rel = self.positions[ph] - tool.p0
+            t = float(rel @ axis) / length2
+            if 0.0 <= t <= 1.0 and float(np.linalg.norm(rel - t * axis)) < 1.02 * tool.radius:
+                return True
+        return False
 
     def discard(self) -> None:
         for ph in self._proposed:
@@ -356,7 +369,7 @@ def _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_sl
 
 
 def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
-              min_angle_deg: float = 15.0, defer_slivers: bool = False) -> dict:
+              min_angle_deg: float = 15.0, defer_slivers: bool = False, tool=None) -> dict:
     """Re-mesh the hole around ``incision`` (Stage 3).
 
     Args:
@@ -369,6 +382,9 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
         min_angle_deg: Smallest acceptable triangle angle [deg].
         defer_slivers: Leave a hole open (for the next event) rather than fill it with a
             triangle whose smallest angle is below ``min_angle_deg``.
+        tool: The tool now (a ``Tool``), or None: a hole whose new lip nodes would lie inside
+            it stays open until it has moved on (a node made inside the tool would be pushed
+            out at once: a jolt in the tool's force).
 
     Returns:
         ``created`` lip nodes, new ``triangles``, ``chains`` count, ``unfilled`` chains
@@ -378,13 +394,18 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
     """
     chains = hole_chains(editor, removed_corners, open_chains)
     slots = _LipSlots(editor, incision, positions)
-    triangles, unfilled = [], []
+    triangles, unfilled, under_tool = [], [], False
     for chain in chains:
         chain = _start_at_slit_start(chain, incision, slots)
         ordered = _lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain))
         if not ordered and chain[0] != chain[-1]:
             continue  # a notch open to the tissue's outer border: no hole
         lips = slots.propose(ordered, chain, snap=0.5 * incision.spacing)
+        if tool is not None and slots.proposed_inside(tool):
+            slots.discard()
+            unfilled.append(chain)  # under the tool: filled once it has moved on
+            under_tool = True
+            continue
         normal = _hole_normal(incision, chain + lips, positions)
         tris = _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers)
         if tris is None:
@@ -400,8 +421,8 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
             triangles.append(tri)
             editor.add_triangle(tri, positions, SpringClass.RED)
     classes = _classify(editor, incision, triangles, positions)
-    return {"created": slots.created, "triangles": triangles,
-            "chains": len(chains), "unfilled": unfilled, **classes}
+    return {"created": slots.created, "triangles": triangles, "chains": len(chains),
+            "unfilled": unfilled, "under_tool": under_tool, **classes}
 
 
 def _notch(editor, chain, slots: _LipSlots) -> bool:

@@ -249,8 +249,8 @@ def locate_crossing(p0, p1, positions: np.ndarray, corners: np.ndarray, *, reach
         positions: Positions of the live nodes around the axis [m], shape (k, 3).
         corners: Live triangles with a corner among them, as corner positions [m],
             shape (m, 3, 3), wound counter-clockwise seen from outside.
-        reach: A crossing counts only if a node lies within this distance of it [m]
-            (farther is beside the tissue).
+        reach: A crossing counts only if the nodes within this distance of it [m] surround
+            it (else it is beside the tissue, beyond its edge).
         fit_radius: Length scale of the fitted surface's weights [m].
         exclude: Nodes closer than this to the axis line are left out of the fit [m].
         rest_positions: The same nodes' rest positions [m], shape (k, 3), or None.
@@ -276,10 +276,24 @@ def locate_crossing(p0, p1, positions: np.ndarray, corners: np.ndarray, *, reach
         if t is None:
             return _outside(surface, p0, positions, reach)
         guess = p0 + t * (p1 - p0)
-    if np.min(np.linalg.norm(positions - guess, axis=1)) > reach:
+    if not _over_the_skin(positions, guess, surface, reach):
         return None
     return Crossing(guess, surface.normal_at(*surface.local(guess)), t, bool(hit.any()),
                     surface.tip_height(p0))
+
+
+def _over_the_skin(positions: np.ndarray, point: np.ndarray, surface: HeightField, reach: float) -> bool:
+    """True if ``point`` lies within the tissue's outline: nodes within ``reach`` [m] of it
+    surround it, leaving no angular gap wider than a half-turn in the surface's tangent plane
+    (inside the tissue, a slit or the tool's own hole they do; beyond the tissue's edge they
+    lie on one side only)."""
+    rel = positions - point
+    near = np.linalg.norm(rel, axis=1) <= reach
+    if near.sum() < 3:
+        return False
+    angles = np.sort(np.arctan2(rel[near] @ surface.e2, rel[near] @ surface.e1))
+    gaps = np.diff(np.concatenate([angles, [angles[0] + 2.0 * np.pi]]))
+    return float(gaps.max()) <= np.pi
 
 
 def _outside(surface: HeightField, p0: np.ndarray, positions: np.ndarray, reach: float) -> Crossing | None:
@@ -290,7 +304,7 @@ def _outside(surface: HeightField, p0: np.ndarray, positions: np.ndarray, reach:
         return None
     x, y = surface.local(p0)
     foot = surface.centre + x * surface.e1 + y * surface.e2 + surface.height(x, y) * surface.normal
-    if np.min(np.linalg.norm(positions - foot, axis=1)) > reach:
+    if not _over_the_skin(positions, foot, surface, reach):
         return None
     return Crossing(foot, surface.normal_at(x, y), float("nan"), False, height)
 
