@@ -16,9 +16,11 @@ pushes harder than a threshold) a cut event runs:
 The incision starts where the axis first crossed the skin (found among the tool's poses since
 the previous event, so neither a thin tool slipping between nodes nor the event interval
 delays it) and ends when the tool leaves the skin - lifted out, or moved off the tissue -
-and only then: one stroke is one incision. The slit's end node moves on with the tool (one
-node, not one per event); residual-stress links whose node a later event deletes are carried
-to the node that takes its place on the same side.
+and only then: one stroke is one incision. While the tool cuts, lips are made only behind its
+footprint (a node made inside the tool would be pushed out at once: a jolt in the tool's
+force); the slit's tip is its newest lip pair and the tissue ahead of it is re-closed after
+each event until the tool has gone. Residual-stress links whose node a later event deletes are
+carried to the node that takes its place on the same side.
 """
 
 from __future__ import annotations
@@ -129,14 +131,6 @@ class CutHost(Protocol):
         """Mirror the model's latest edit on the device and update the stable step."""
 
 
-def _inside_tool(point, tool: Tool, margin: float = 1.02) -> bool:
-    """True if ``point`` [m] lies within the tool's cylinder (radius widened by ``margin``)."""
-    axis = tool.p1 - tool.p0
-    t = float(np.dot(point - tool.p0, axis)) / max(float(axis @ axis), 1e-300)
-    closest = tool.p0 + min(max(t, 0.0), 1.0) * axis
-    return 0.0 <= t <= 1.0 and float(np.linalg.norm(point - closest)) < margin * tool.radius
-
-
 def _crosses(x: np.ndarray, pairs: np.ndarray, a, b, normal) -> np.ndarray:
     """Mask (s,) of node pairs (s, 2) on either side of the cut line a-b in the surface whose
     outward normal is ``normal`` (a pair on one side is not separated by the cut)."""
@@ -232,14 +226,18 @@ class Cutter:
     def after_step(self, sim: CutHost) -> None:
         """Advance the cut after a simulation step of ``sim``."""
         tool = sim.tool_pose if sim.collision else None
-        if tool is None or tool.radius <= 0:
+        cutting = tool is not None and tool.radius > 0
+        if cutting:
+            self._poses.append(tool)
+        else:
             self._poses.clear()
             self.end_incision(sim)
-            return
-        self._poses.append(tool)
         if sim.time - self._last_event < self.settings.interval - 1e-12:
             return
         self._last_event = sim.time
+        self._retry_holes(sim)
+        if not cutting:
+            return
         poses, self._poses = self._poses, []
         if self.current is None:
             self._start_where_the_blade_entered(sim, poses)
@@ -247,9 +245,10 @@ class Cutter:
         crossing = self.crossing(sim, tool)
         if crossing is None or crossing.tip_height > self.exit_margin:
             self.end_incision(sim)  # the tool has left the skin: this incision is complete
-        elif crossing.inside:
+        elif crossing.inside and not self.current.retraces(crossing.point, self.current.sweep_radius):
             self.extend_incision(sim, crossing.point, crossing.normal)
-        # else: the tip is just above the skin (the skin moves, the tool hovers): wait
+        # else: the tip is just above the skin (the skin moves, the tool hovers) or back over
+        # the cut: wait
 
     def crossing(self, sim: CutHost, tool: Tool) -> Crossing | None:
         """Where the tool's axis crosses the skin now (None: the tool is out of the skin)."""
@@ -328,27 +327,57 @@ class Cutter:
 
     def end_incision(self, sim: CutHost) -> None:
         """Finish the current incision (the next cut starts a new one). The tool has gone, so
-        the stretch it covered is given its lips now: the slit's end node moves to the curve's
-        end, the stations reach to half a spacing from it and the region around the end is
-        re-meshed; a hole still open waiting for better geometry is filled now, slivers or
-        not."""
+        the stretch it covered gets its lips now: the tissue re-closed ahead of the slit's tip
+        is removed again, stations reach to half a spacing from the curve's end and the end
+        node is made there; a hole still open waiting for better geometry is filled now,
+        slivers or not."""
         inc = self.current
         self.current = None
         if inc is None or len(inc.path) < 2:
             return
         self.editor.begin()
-        end = inc.end_node if inc.end_node >= 0 and self.model.active[inc.end_node] else -1
-        if end >= 0:
-            self.editor.delete_springs(list(self.editor.node_springs[end]), residual=False)
-            self.editor.delete_triangles(list(self.editor.node_triangles[end]))
+        self._reopen_tip(sim, inc)
+        inc.open_end = False
         inc.plan_stations(clearance=0.5 * self.spacing)
-        moved = self._place_end(inc, end, inc.length, None)
         if not (self.editor.report.deleted_triangle_corners or inc.open_chains):
             self.editor.finish()
             return
-        report, result, positions = self._stage3(sim, inc, None, moved, defer_slivers=False)
+        report, result, positions = self._stage3(sim, inc, None, defer_slivers=False)
         self._apply(sim, report, positions)
         self._count(report, result)
+
+    def _retry_holes(self, sim: CutHost) -> None:
+        """Fill again the holes a finished incision left open (its fill could find no valid
+        triangles where the tissue was, e.g., still moving fast): tried at every cut event."""
+        for inc in self.incisions:
+            if inc is self.current or not inc.open_chains:
+                continue
+            self.editor.begin()
+            report, result, positions = self._stage3(sim, inc, None, defer_slivers=False)
+            self._apply(sim, report, positions)
+            self._count(report, result)
+
+    def _reopen_tip(self, sim: CutHost, inc: Incision) -> None:
+        """Delete the triangles across the curve beyond the slit's tip (its newest live lip pair,
+        or its start): the tissue re-closed there at the previous event, up to the tool. New
+        stations (and, once the tool has gone, the end) get their lips there."""
+        tip_u = inc.tip_u(self.model.active)
+        if inc.length <= tip_u:
+            return
+        x = self._positions_view(sim)
+        tip, end = inc.point_at([tip_u, inc.length])
+        near = self._nodes_near(sim, tip, end, inc.sweep_radius + 2.0 * self.spacing)
+        tris = np.array(sorted({t for v in near for t in self.editor.node_triangles[v]}), dtype=np.int64)
+        if not len(tris):
+            return
+        corners = self.model.triangle_table.column("corners")[tris]
+        u, side, _ = inc.project(x[corners.reshape(-1)].astype(np.float64))
+        u, side = u.reshape(-1, 3), side.reshape(-1, 3)
+        _, _, centre_dist = inc.project(x[corners].mean(axis=1).astype(np.float64))
+        # across the curve (not only its extension beyond the end), beyond the tip
+        across = ((side.min(axis=1) != side.max(axis=1)) & (u.max(axis=1) > tip_u + 1e-9)
+                  & (u.min(axis=1) < inc.length - 1e-9) & (centre_dist <= inc.sweep_radius + self.spacing))
+        self.editor.delete_triangles(tris[across])
 
     def _positions_view(self, sim: CutHost) -> np.ndarray:
         # zero-copy on the CPU; a copy from a GPU
@@ -366,16 +395,16 @@ class Cutter:
         if np.linalg.norm(point - inc.path[-1]) < 0.1 * self.spacing:
             return  # the tool has not moved enough to extend the incision
         t0 = time.perf_counter()
-        end = self._sweep(sim, inc, inc.path[-1], point, inc.normals[-1] if normal is None else normal)
+        self._sweep(sim, inc, inc.path[-1], point, inc.normals[-1] if normal is None else normal)
+        self._reopen_tip(sim, inc)  # new stations may fall there
         t1 = time.perf_counter()
         inc.extend(point, min_step=0.0, normal=normal)
         behind = self._footprint(sim.tool_pose, inc)
         inc.plan_stations(clearance=max(0.5 * self.spacing, behind + 0.25 * self.spacing))
-        moved = self._place_end(inc, end, inc.length - behind, sim.tool_pose)
         self.contact_path.append(point)
         t2 = time.perf_counter()
         # a sliver may wait a few events for better geometry, not forever
-        report, result, positions = self._stage3(sim, inc, point, moved, defer_slivers=inc.deferrals < 3,
+        report, result, positions = self._stage3(sim, inc, point, defer_slivers=inc.deferrals < 3,
                                                  tool=sim.tool_pose)
         t3 = time.perf_counter()
         self._apply(sim, report, positions)
@@ -394,29 +423,15 @@ class Cutter:
         sin_a = abs(float(np.dot(tool.p1 - tool.p0, inc.normals[-1]))) / tool.length
         return inc.sweep_radius / max(sin_a, 0.25)
 
-    def _place_end(self, inc: Incision, end: int, u: float, tool: Tool | None) -> dict:
-        """Put the slit's end node at arc length ``u`` [m] (not before the last station), moved
-        back along the curve until it is clear of the tool; returns {node: position} (empty
-        without an end node)."""
-        low = (inc.station_u[-1] + 0.25 * self.spacing) if inc.station_u else 0.0
-        u = min(max(u, low), inc.length)
-        while tool is not None and u > low and _inside_tool(inc.point_at(u)[0], tool):
-            u = max(low, u - 0.1 * self.spacing)
-        inc.end_u = u
-        if end < 0:
-            return {}
-        point = inc.point_at(u)[0]
-        self.editor.move_node(end, point)
-        return {end: point}
-
-    def _sweep(self, sim: CutHost, inc: Incision, a: np.ndarray, b: np.ndarray, normal) -> int:
+    def _sweep(self, sim: CutHost, inc: Incision, a: np.ndarray, b: np.ndarray, normal) -> None:
         """Stage 1: delete what the capsule a-b (the swept circle) touches: the nodes inside
         and the springs through it. A deleted spring that crosses the cut (its nodes on either
         side of the line a-b in the skin, whose outward normal is ``normal``) and whose nodes
         survive becomes a residual-stress link; one with both nodes on one side, grazed by the
-        capsule, joins what the cut does not separate and makes none.
-        Returns the slit's end node (kept, stripped of its springs and triangles, to move
-        on), or -1."""
+        capsule, joins what the cut does not separate and makes none. The links act once the
+        wound is open where they crossed (``_open_links``): under the tool there are no lips
+        yet, and links there would pull the sides together across the hole the tool is in.
+        """
         editor, model, r = self.editor, self.model, inc.sweep_radius
         near = self._nodes_near(sim, a, b, r + self.edge_reach)
         near_springs = sorted({s for v in near for s in editor.node_springs[v]})
@@ -427,32 +442,26 @@ class Cutter:
             sim.state.positions, dm.spring_indices, self._index_array(near_springs),
             wp.vec3(*a), wp.vec3(*b), float(r)])
         editor.begin()
-        end = inc.end_node if inc.end_node >= 0 and model.active[inc.end_node] else -1
-        doomed = {int(v) for v in nodes} - {end}
-        if end >= 0:
-            editor.delete_springs(list(editor.node_springs[end]), residual=False)
-            editor.delete_triangles(list(editor.node_triangles[end]))
-        own_lips = {n for n in inc.left + inc.right + [inc.start_node, end] if n >= 0}
+        doomed = {int(v) for v in nodes}
+        own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
         pairs = model.spring_table.column("pairs")
         crossing = _crosses(self._positions_view(sim), pairs[springs], a, b, normal)
         cut = [sl for sl, k in zip(springs, crossing) if k and not ({int(v) for v in pairs[sl]} & own_lips)]
-        editor.delete_springs(cut, residual=True, doomed_nodes=doomed)
+        separated = []
+        editor.delete_springs(cut, residual=True, doomed_nodes=doomed, pending=separated)
+        inc.pending_links += [(i, j, rest, inc.length) for _, i, j, rest in separated]
         editor.delete_springs(springs, residual=False)  # grazed on one side, or at own lips
         editor.delete_nodes(sorted(doomed))
-        return end
 
     def _index_array(self, idx) -> wp.array:
         return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.device)
 
-    def _stage3(self, sim: CutHost, inc: Incision, point, moved: dict, *, defer_slivers: bool,
-                tool: Tool | None = None):
+    def _stage3(self, sim: CutHost, inc: Incision, point, *, defer_slivers: bool, tool: Tool | None = None):
         """Re-mesh the grey area of the current edit and the holes left open before, finish the
         edit and carry the residual links of deleted nodes. Returns (edit report, fill result,
         positions)."""
         editor = self.editor
         positions = NodePositions(self._positions_view(sim))
-        for v, p in moved.items():
-            positions[v] = p
         result = {"created": [], "yellow": [], "blue": [], "unfilled": [], "under_tool": False}
         if editor.report.deleted_triangle_corners or inc.open_chains:
             result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions,
@@ -462,7 +471,21 @@ class Cutter:
         inc.open_chains = result["unfilled"]  # retried at the next event
         report = editor.finish()
         self._carry_links(inc, report, positions)
+        self._open_links(inc)
         return report, result, positions
+
+    def _open_links(self, inc: Incision) -> None:
+        """Make the residual links of the springs the cut separated behind the slit's tip (all
+        of them once the tool has gone); those whose node a later event deleted are dropped."""
+        tip_u = inc.tip_u(self.model.active) if inc.open_end else np.inf
+        due = [link for link in inc.pending_links if link[3] <= tip_u]
+        if not due:
+            return
+        inc.pending_links = [link for link in inc.pending_links if link[3] > tip_u]
+        active = self.model.active
+        live = [(i, j, rest) for i, j, rest, _ in due if active[i] and active[j]]
+        self.totals["lost_links"] += len(due) - len(live)
+        self.editor.make_links([(i, j) for i, j, _ in live], [rest for _, _, rest in live])
 
     def _carry_links(self, inc: Incision, report, positions: NodePositions) -> None:
         """Move each residual link that lost a node in this edit to the node that took that
@@ -505,9 +528,8 @@ class Cutter:
 
     def _apply(self, sim: CutHost, report, positions: NodePositions) -> None:
         """Update the explicit step's limit node by node (rows of the nodes whose springs or
-        links changed), then let the host mirror the edit and place the new and moved nodes."""
-        placed = np.array(list(report.new_nodes) + [v for v in report.moved_nodes if self.model.active[v]],
-                          dtype=np.int64)
+        links changed), then let the host mirror the edit and place the new nodes."""
+        placed = np.array(report.new_nodes, dtype=np.int64)
         changed = set(self.editor.touched_nodes)
         link_pairs = self.model.link_table.column("pairs")
         for slot in list(report.residual_links) + list(report.carried_links):

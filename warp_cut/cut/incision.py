@@ -90,9 +90,10 @@ class Incision:
         self.right: list[int] = []
         self.start_node = -1
         self.end_node = -1
-        self.end_u = 0.0
-        """Arc length [m] where the slit's end node sits: the curve's end once the tool has
-        gone, just behind the tool's footprint while it cuts."""
+        self.open_end = True
+        """True while the tool cuts: the slit's tip is then its newest lip pair (joined by an
+        edge), the tissue ahead of it up to the tool is re-closed after each event, and the
+        end node at the curve's end is made only once the tool has gone."""
         self.sweep_radius = 0.0
         """Radius of the swept circle [m] (set by the Cutter)."""
         self.anchor = -1
@@ -101,6 +102,9 @@ class Incision:
         """Borders of holes the last cut event could not fill (retried at the next one)."""
         self.deferrals = 0
         """Consecutive events that left a hole open."""
+        self.pending_links: list[tuple[int, int, float, float]] = []
+        """Springs the cut separated whose residual links act once the wound is open there:
+        (node i, node j, rest length [m], arc length u [m] where they crossed the cut)."""
         self.reached_border = False
         """True once the cut has opened the skin to the tissue's outer border (a notch)."""
 
@@ -129,6 +133,20 @@ class Incision:
         self._poly = self.curve.evaluate(u)
         self._cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self._poly, axis=0), axis=1))])
         return True
+
+    def retraces(self, point, radius: float) -> bool:
+        """True if ``point`` [m] lies within ``radius`` [m] (in the skin's tangent plane) of the
+        curve short of its end by more than ``radius``: the tool is back over what it has cut
+        (a skin bouncing under a tilted blade moves the crossing to and fro), which extends
+        nothing."""
+        if len(self.path) < 2 or self.length <= radius:
+            return False
+        behind = self._cum < self.length - radius
+        rel = np.asarray(point, dtype=np.float64) - self._poly[behind]
+        n = self.normal_at(self._cum[behind])
+        # distance in the skin's tangent plane: a skin moving along its normal does not count
+        lateral = rel - n * np.einsum("ij,ij->i", rel, n)[:, None]
+        return bool(np.min(np.linalg.norm(lateral, axis=1)) < radius)
 
     def _fit_from(self, start: int, stop: int) -> np.ndarray | None:
         """Controls fitting path[start:stop] and joining the frozen part C1 (None if the
@@ -204,13 +222,21 @@ class Incision:
 
     # ----------------------------------------------------------------- stations
     def plan_stations(self, clearance: float | None = None) -> None:
-        """Add interior stations every ``spacing``, keeping the last one at least ``clearance``
-        [m] behind the end (default: half a spacing and 1.5 sweep radii): a lip is made once
-        the tool (whose footprint on a tilted surface reaches r / sin(angle) behind the axis)
-        has passed it."""
+        """Add interior stations every ``spacing`` (the first as soon as it fits, at least half a
+        spacing from the start), keeping the last one at least ``clearance`` [m] behind the end
+        (default: half a spacing and 1.5 sweep radii): a lip is made once the tool (whose
+        footprint on a tilted surface reaches r / sin(angle) behind the axis) has passed it."""
         last = self.station_u[-1] if self.station_u else 0.0
         if clearance is None:
             clearance = max(0.5 * self.spacing, 1.5 * self.sweep_radius)
+        if not self.station_u and self.length - clearance >= 0.5 * self.spacing:
+            # the first station as soon as there is room: until it exists the slit has no
+            # opening (its start and end node alone do not part its sides)
+            first = min(self.spacing, self.length - clearance)
+            self.station_u.append(first)
+            self.left.append(-1)
+            self.right.append(-1)
+            last = first
         while self.length - (last + self.spacing) >= clearance:
             last += self.spacing
             self.station_u.append(last)
@@ -226,8 +252,10 @@ class Incision:
 
     def lip_nodes(self) -> list[tuple[int, float, int, int]]:
         """Every lip slot as (node or -1, theta, side, station index): start (side 0, index -1),
-        interior stations on both lips, end (side 0, index -2)."""
-        out = [(self.start_node, 0.0, 0, -1), (self.end_node, self.length, 0, -2)]
+        interior stations on both lips, end (side 0, index -2; once the tool has gone)."""
+        out = [(self.start_node, 0.0, 0, -1)]
+        if not self.open_end:
+            out.append((self.end_node, self.length, 0, -2))
         for k, u in enumerate(self.station_u):
             out.append((self.left[k], u, 1, k))
             out.append((self.right[k], 2.0 * self.length - u, -1, k))
@@ -242,6 +270,15 @@ class Incision:
             self.left[station] = node
         else:
             self.right[station] = node
+
+    def tip_u(self, active: np.ndarray) -> float:
+        """Arc length [m] of the slit's tip: its newest station whose two lip nodes live (0,
+        the start, if none)."""
+        for k in range(len(self.station_u) - 1, -1, -1):
+            a, b = self.left[k], self.right[k]
+            if a >= 0 and b >= 0 and active[a] and active[b]:
+                return self.station_u[k]
+        return 0.0
 
     def pairs(self) -> np.ndarray:
         """(k, 2) node pairs (left, right) of interior stations that have both lip nodes."""

@@ -61,8 +61,30 @@ def hole_chains(editor, removed_corners, open_chains=()) -> list[list[int]]:
             if v == chain[0]:
                 break
         if len(chain) > 1:
-            chains.append(chain)
+            chains.extend(_split_pinches(chain))
     return chains
+
+
+def _split_pinches(chain: list[int]) -> list[list[int]]:
+    """A border chain that passes a node twice (two lobes of a hole touching at a node) as
+    simple chains: each lobe a closed loop of its own, and what is left."""
+    closed = chain[0] == chain[-1]
+    body = chain[:-1] if closed else list(chain)
+    loops, stack, where = [], [], {}
+    for v in body:
+        if v in where:  # the lobe since the last visit is a loop of its own
+            k = where[v]
+            loop = stack[k:] + [v]
+            for u in stack[k + 1:]:
+                where.pop(u, None)
+            del stack[k + 1:]
+            if len(loop) > 3:
+                loops.append(loop)
+            continue
+        where[v] = len(stack)
+        stack.append(v)
+    rest = stack + [stack[0]] if closed else stack
+    return ([rest] if len(rest) > 1 else []) + loops
 
 
 def _runs(editor, a, b) -> bool:
@@ -258,7 +280,7 @@ class _LipSlots:
             if node < 0:
                 key = (station, side)
                 if key not in here:
-                    u = inc.station_u[station] if station >= 0 else (0.0 if station == -1 else inc.end_u)
+                    u = inc.station_u[station] if station >= 0 else (0.0 if station == -1 else inc.length)
                     point = inc.lip_position(u, side)
                     here[key] = self._snap(spare, point, side, snap) if station >= 0 else -1
                     if here[key] < 0:
@@ -293,13 +315,39 @@ class _LipSlots:
             del spare[best]
         return best
 
+    def lip_side(self, node) -> tuple[int, float] | None:
+        """(side, arc length u [m]) of an interior-station lip node or placeholder (side +1
+        left, -1 right); None for any other node (the start and end nodes included)."""
+        key = self._proposed.get(node)
+        if key is None:
+            for n, _, side, station in self.slots:
+                if n == node and station >= 0:
+                    key = (station, side)
+                    break
+        if key is None or key[0] < 0:
+            return None
+        return key[1], self.incision.station_u[key[0]]
+
+    def bridges(self, tri) -> bool:
+        """True if a triangle would join the slit's two lips behind its tip: it holds a left
+        and a right lip node and its third corner is not tissue ahead of both (only the
+        tissue ahead of an open slit's tip closes it)."""
+        sides = [self.lip_side(v) for v in tri]
+        left = [s for s in sides if s is not None and s[0] > 0]
+        right = [s for s in sides if s is not None and s[0] < 0]
+        if not left or not right:
+            return False
+        others = [v for v, s in zip(tri, sides) if s is None]
+        if not self.incision.open_end or len(others) != 1 or others[0] in self.theta:
+            return True
+        u, _, _ = self.incision.project(self.positions[others])
+        return float(u[0]) <= max(s[1] for s in left + right)
+
     def proposed_inside(self, tool) -> bool:
         """True if a proposed new lip node lies inside the tool's cylinder."""
         axis = tool.p1 - tool.p0
         length2 = max(float(axis @ axis), 1e-300)
-        for ph in self._proposed:
-            if ph < _PLACEHOLDER:
-                continue
+        for ph in (ph for ph in self._proposed if ph >= _PLACEHOLDER):
             rel = self.positions[ph] - tool.p0
             t = float(rel @ axis) / length2
             if 0.0 <= t <= 1.0 and float(np.linalg.norm(rel - t * axis)) < 1.02 * tool.radius:
@@ -346,19 +394,19 @@ def _start_at_slit_start(chain, incision, slots: _LipSlots) -> list[int]:
     return body[k:] + body[:k] + [body[k]]
 
 
-def _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers):
+def _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers, slots):
     """The matching strip between ``chain`` and ``lips``, or, where displaced nodes make it
     fold over or thin, the hole polygon cut into ears: the better-shaped valid one, or None
     when neither is valid (or, with ``defer_slivers``, both have an angle below
-    ``min_angle_deg``)."""
+    ``min_angle_deg``). No triangle may bridge the slit (``_LipSlots.bridges``)."""
     candidates = []
     if lips:
         strip = zip_strip(chain, lips, positions, normal)
-        if _acceptable(strip, editor, positions, normal):
+        if _acceptable(strip, editor, positions, normal, slots):
             candidates.append(strip)
     if not candidates or _min_angle(candidates[0], positions) < min_angle_deg:
         ears = ear_clip(_polygon(chain, lips), positions, normal)
-        if _acceptable(ears, editor, positions, normal):
+        if _acceptable(ears, editor, positions, normal, slots):
             candidates.append(ears)
     if not candidates:
         return None
@@ -407,7 +455,7 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
             under_tool = True
             continue
         normal = _hole_normal(incision, chain + lips, positions)
-        tris = _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers)
+        tris = _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers, slots)
         if tris is None:
             slots.discard()
             if _notch(editor, chain, slots):
@@ -463,14 +511,15 @@ def _min_angle(tris, positions) -> float:
     return float(triangle_min_angles(corners, np.arange(len(corners)).reshape(-1, 3)).min())
 
 
-def _acceptable(strip, editor, positions, normal) -> bool:
-    """A strip may join the mesh only if every triangle keeps the surface's orientation and
-    no edge ends up with more than two triangles or the same direction twice."""
+def _acceptable(strip, editor, positions, normal, slots: _LipSlots) -> bool:
+    """A strip may join the mesh only if every triangle keeps the surface's orientation, none
+    bridges the slit, and no edge ends up with more than two triangles or the same direction
+    twice."""
     if not strip:
         return False
     directed = set()
     for tri in strip:
-        if not _valid(tri, positions, normal):
+        if not _valid(tri, positions, normal) or slots.bridges(tri):
             return False
         for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
             if (a, b) in directed:

@@ -59,8 +59,6 @@ class EditReport:
     """Residual links re-made between a surviving node and the node that took a deleted one's place."""
     orphaned_links: list = field(default_factory=list)
     """(surviving node, deleted node, force [N], smoothing [m]) of links that lost a node."""
-    moved_nodes: list = field(default_factory=list)
-    """Nodes placed at a new rest position (the slit's end node moving with the tool)."""
     removed_fragments: list = field(default_factory=list)
     """Nodes deleted because the edit left them without any triangle."""
     stray_springs: list = field(default_factory=list)
@@ -126,10 +124,12 @@ class TopologyEditor:
             table.kill([slot])
             self.report.deleted_triangles.append(slot)
 
-    def delete_springs(self, slots, *, residual: bool = True, doomed_nodes=()) -> None:
+    def delete_springs(self, slots, *, residual: bool = True, doomed_nodes=(), pending: list | None = None) -> None:
         """Delete springs and the triangles they bound. A deleted spring whose two end nodes
         survive (are active and not in ``doomed_nodes``) becomes a residual-stress link
-        (not in the prestress model, where the cut releases the springs' tension instead)."""
+        (not in the prestress model, where the cut releases the springs' tension instead);
+        with ``pending`` given, its (slot, i, j, rest length [m]) is appended there instead,
+        for the caller to make the link later (``make_links``)."""
         model = self.model
         residual = residual and model.material.residual_stress_model == "links"
         table = model.spring_table
@@ -143,19 +143,29 @@ class TopologyEditor:
             i, j = (int(v) for v in pairs[slot])
             self.delete_triangles(self.triangles_with_edge(i, j))
             if residual and model.active[i] and model.active[j] and i not in doomed and j not in doomed:
-                link_pairs.append((i, j))
-                link_rest.append(rest[slot])
+                if pending is not None:
+                    pending.append((slot, i, j, float(rest[slot])))
+                else:
+                    link_pairs.append((i, j))
+                    link_rest.append(rest[slot])
             self.node_springs[i].discard(slot)
             self.node_springs[j].discard(slot)
             self._touched.update((i, j))
             table.kill([slot])
             self.report.deleted_springs.append(slot)
-        if link_pairs:
-            new = model.add_residual_links(link_pairs, link_rest)
-            for slot, (i, j) in zip(new, link_pairs):
-                self.node_links[i].add(int(slot))
-                self.node_links[j].add(int(slot))
-            self.report.residual_links.extend(int(s) for s in new)
+        self.make_links(link_pairs, link_rest)
+
+    def make_links(self, pairs, rest_lengths) -> None:
+        """Residual-stress links between node pairs (l, 2) for springs of rest lengths (l,) [m]
+        (``TissueModel.add_residual_links``: sigma_r x thickness x rest length)."""
+        if not len(pairs):
+            return
+        new = self.model.add_residual_links(pairs, rest_lengths)
+        for slot, (i, j) in zip(new, pairs):
+            self.node_links[int(i)].add(int(slot))
+            self.node_links[int(j)].add(int(slot))
+            self._touched.update((int(i), int(j)))
+        self.report.residual_links.extend(int(s) for s in new)
 
     def delete_links(self, slots, *, lost_nodes=()) -> None:
         """Delete residual links. A link losing one of ``lost_nodes`` (nodes being deleted) while
@@ -216,13 +226,6 @@ class TopologyEditor:
         self._touched.update((int(i), int(j)))
         self.report.carried_links.append(slot)
         return slot
-
-    def move_node(self, node: int, point) -> None:
-        """Give a live node a new rest position [m] (3,) (it should have no springs left: its
-        new ones take their rest lengths from where it is now)."""
-        self.model.node_table.set("points", [int(node)], np.asarray(point, np.float64)[None])
-        self.report.moved_nodes.append(int(node))
-        self._touched.add(int(node))
 
     def add_spring(self, i: int, j: int, positions: np.ndarray, spring_class: int) -> int:
         """A spring between i and j with rest length from ``positions`` (node_count, 3) [m];

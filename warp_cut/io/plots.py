@@ -1,7 +1,8 @@
 """Pictures of a run (matplotlib, no display needed): a look without a USD viewer.
 
-* ``preview.png`` - the final mesh seen from above (XY, mm), node classes coloured, the
-  incision curve and the tool's axis drawn;
+* ``preview.png`` - the final mesh seen along its mean normal (from above for a flat patch; in
+  perspective when the surface is curved), node classes coloured, the incision curve and the
+  tool's axis drawn;
 * ``tool_force.png`` - the tool force over time;
 * ``width.png`` - the incision width over time (when the time series has ``incision_width_m``),
   with its peak, plateau and settling time marked.
@@ -18,6 +19,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from ..cut.bezier import BezierChain
 from ..cut.classes import NODE_CLASS_COLORS, NodeClass
@@ -104,51 +106,136 @@ def save_figure(fig, path) -> Path:
     return path
 
 
+CURVED_DEG = 25.0
+"""A mesh whose triangles turn more than this [deg] from their mean normal is drawn in a
+perspective view; a flatter one is drawn as seen along its mean normal."""
+
+
+def _view(picture: RunPicture):
+    """(unit mean normal of the live surface, its largest angle to a triangle's normal [deg])."""
+    x = np.asarray(picture.positions, dtype=np.float64)
+    tri = np.asarray(picture.triangles, dtype=np.int64).reshape(-1, 3)
+    if not len(tri):
+        return np.array([0.0, 0.0, 1.0]), 0.0
+    n = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])
+    mean = n.sum(axis=0)
+    mean = mean / np.linalg.norm(mean) if np.linalg.norm(mean) > 0 else np.array([0.0, 0.0, 1.0])
+    unit = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    return mean, float(np.degrees(np.arccos(np.clip((unit @ mean).min(), -1.0, 1.0))))
+
+
+def _plane_axes(normal: np.ndarray) -> np.ndarray:
+    """(2, 3) in-plane axes for a view along ``normal``: x as close to the world X as it can be
+    (the world XY when the normal is +Z)."""
+    e1 = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
+    if np.linalg.norm(e1) < 1e-6:
+        e1 = np.array([0.0, 1.0, 0.0]) - normal[1] * normal
+    e1 /= np.linalg.norm(e1)
+    return np.stack([e1, np.cross(normal, e1)])
+
+
+def _class_points(picture: RunPicture):
+    """(class, mask of the live nodes of that class) for every class but the normal one."""
+    active = np.asarray(picture.active, dtype=bool)
+    classes = np.asarray(picture.node_class)
+    return [(cls, active & (classes == cls)) for cls in NodeClass
+            if cls != NodeClass.NORMAL and (active & (classes == cls)).any()]
+
+
+def _curve(picture: RunPicture) -> np.ndarray | None:
+    if picture.incision is None or len(picture.incision) < 4:
+        return None
+    chain = BezierChain.from_control_points_flat(picture.incision)
+    return chain.evaluate(np.linspace(0.0, chain.segment_count, 64 * chain.segment_count)) * _MM
+
+
 def plot_preview(path, picture: RunPicture, title: str = "") -> Path:
-    """Draw the mesh from above (XY [mm]) with node classes coloured, the incision and the tool axis.
+    """Draw the final mesh with node classes coloured, the incision and the tool axis: as seen
+    along the surface's mean normal (from above, for a flat patch in XY), or in perspective
+    when the surface is curved (see ``CURVED_DEG``).
 
     Args:
         path: The PNG file.
         picture: What to draw.
-        title: Figure title (default: the time).
+        title: Figure title (default: the time and the view).
 
     Returns:
         The path written.
     """
-    x = np.asarray(picture.positions, dtype=np.float64) * _MM
+    normal, turn = _view(picture)
+    if turn > CURVED_DEG:
+        return _plot_perspective(path, picture, normal, title)
+    return _plot_along_normal(path, picture, normal, title)
+
+
+def _plot_along_normal(path, picture: RunPicture, normal: np.ndarray, title: str) -> Path:
+    axes = _plane_axes(normal)
+    x = (np.asarray(picture.positions, dtype=np.float64) @ axes.T) * _MM
     tri = np.asarray(picture.triangles, dtype=np.int64).reshape(-1, 3)
     fig = new_figure(7.0, 5.6)
     ax = fig.add_subplot(1, 1, 1)
     if len(tri):
-        ax.add_collection(PolyCollection(x[tri][:, :, :2], facecolors=[NODE_CLASS_COLORS[NodeClass.NORMAL]],
+        ax.add_collection(PolyCollection(x[tri], facecolors=[NODE_CLASS_COLORS[NodeClass.NORMAL]],
                                          edgecolors=[(0.45, 0.3, 0.25)], linewidths=0.3))
-    active = np.asarray(picture.active, dtype=bool)
-    classes = np.asarray(picture.node_class)
-    for cls in NodeClass:
-        if cls == NodeClass.NORMAL:
-            continue
-        sel = active & (classes == cls)
-        if sel.any():
-            ax.scatter(x[sel, 0], x[sel, 1], s=10, color=NODE_CLASS_COLORS[cls], zorder=3,
-                       label=f"{cls.name.lower()} ({int(sel.sum())})")
-    if picture.incision is not None and len(picture.incision) >= 4:
-        chain = BezierChain.from_control_points_flat(picture.incision)
-        curve = chain.evaluate(np.linspace(0.0, chain.segment_count, 64 * chain.segment_count)) * _MM
-        ax.plot(curve[:, 0], curve[:, 1], color=(0.45, 0.02, 0.02), lw=1.5, zorder=4, label="incision")
+    for cls, sel in _class_points(picture):
+        ax.scatter(x[sel, 0], x[sel, 1], s=10, color=NODE_CLASS_COLORS[cls], zorder=3,
+                   label=f"{cls.name.lower()} ({int(sel.sum())})")
+    curve = _curve(picture)
+    if curve is not None:
+        c = curve @ axes.T
+        ax.plot(c[:, 0], c[:, 1], color=(0.45, 0.02, 0.02), lw=1.5, zorder=4, label="incision")
     if picture.tool is not None:
-        p0, p1 = (np.asarray(p) * _MM for p in picture.tool)
+        p0, p1 = ((np.asarray(p) @ axes.T) * _MM for p in picture.tool)
         ax.plot([p0[0], p1[0]], [p0[1], p1[1]], color=(0.3, 0.3, 0.35), lw=2.5, alpha=0.7,
                 zorder=5, label="tool axis")
         ax.plot([p0[0]], [p0[1]], "o", color=(0.3, 0.3, 0.35), ms=4, zorder=5)
+    active = np.asarray(picture.active, dtype=bool)
     pts = x[active] if active.any() else x
     if len(pts):
         pad = 0.03 * max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1]), 1e-3)
         ax.set_xlim(pts[:, 0].min() - pad, pts[:, 0].max() + pad)
         ax.set_ylim(pts[:, 1].min() - pad, pts[:, 1].max() + pad)
     ax.set_aspect("equal")
+    top = np.allclose(normal, [0.0, 0.0, 1.0], atol=1e-3)
+    ax.set_xlabel("x [mm]" if top else "along the surface [mm]")
+    ax.set_ylabel("y [mm]" if top else "across [mm]")
+    view = "seen from above" if top else "seen along the surface's mean normal"
+    ax.set_title(title or f"t = {picture.time:.3f} s, {view}")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def _plot_perspective(path, picture: RunPicture, normal: np.ndarray, title: str) -> Path:
+    x = np.asarray(picture.positions, dtype=np.float64) * _MM
+    tri = np.asarray(picture.triangles, dtype=np.int64).reshape(-1, 3)
+    fig = new_figure(7.0, 5.6)
+    ax = fig.add_subplot(1, 1, 1, projection="3d")
+    ax.set_proj_type("persp")
+    if len(tri):
+        ax.add_collection3d(Poly3DCollection(x[tri], facecolors=[NODE_CLASS_COLORS[NodeClass.NORMAL]],
+                                             edgecolors=[(0.45, 0.3, 0.25)], linewidths=0.2, alpha=0.9))
+    for cls, sel in _class_points(picture):
+        ax.scatter(x[sel, 0], x[sel, 1], x[sel, 2], s=8, color=NODE_CLASS_COLORS[cls], depthshade=False,
+                   label=f"{cls.name.lower()} ({int(sel.sum())})")
+    curve = _curve(picture)
+    if curve is not None:
+        ax.plot(curve[:, 0], curve[:, 1], curve[:, 2], color=(0.45, 0.02, 0.02), lw=1.5, label="incision")
+    active = np.asarray(picture.active, dtype=bool)
+    pts = x[active] if active.any() else x
+    if len(pts):
+        centre, half = 0.5 * (pts.min(axis=0) + pts.max(axis=0)), 0.5 * np.ptp(pts, axis=0).max()
+        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+            setter(c - half, c + half)
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+    elev = float(np.degrees(np.arcsin(np.clip(normal[2], -1.0, 1.0))))
+    azim = float(np.degrees(np.arctan2(normal[1], normal[0])))
+    ax.view_init(elev=max(elev, 25.0), azim=azim - 30.0)
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
-    ax.set_title(title or f"t = {picture.time:.3f} s, seen from above")
+    ax.set_zlabel("z [mm]")
+    ax.set_title(title or f"t = {picture.time:.3f} s, perspective")
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
