@@ -146,9 +146,10 @@ def make_case(seed: int, *, kind: str | None = None, quick: bool = False) -> dic
     sim = {"integrator": str(rng.choice(names, p=weights)),
            "interval": 0.0 if rng.uniform() < 0.2 else float(rng.uniform(0.0, 1.0 / 30.0)),
            "gravity": bool(rng.uniform() < 0.8)}
-    # An unsupported sheet sags about 1 cm under gravity; XPBD (no per-node damping drag) gets
-    # there within half a second, so strokes planned on the undeformed surface would miss it.
-    sim["gravity"] = sim["gravity"] and sim["integrator"] != "xpbd"
+    # Under gravity the skin lies on its support (physics.foundation, as in the body): an
+    # unsupported sheet sags about 1 cm, and strokes planned on the undeformed surface after
+    # the first would pass above it.
+    sim["foundation"] = sim["gravity"]
     count = 2 if quick else int(rng.integers(2, 5))
     surface = build_surface(surface_spec)
     return {"seed": int(seed), "kind": kind, "quick": quick, "surface": surface_spec, "sim": sim,

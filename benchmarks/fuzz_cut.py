@@ -32,6 +32,7 @@ import numpy as np
 import warp as wp
 
 import warp_cut as wc
+from warp_cut.scene import DEFAULT_FOUNDATION_STIFFNESS
 from warp_cut.verify.stroke_check import run_stroke
 from warp_cut.verify.stroke_quality import original_border
 
@@ -54,7 +55,8 @@ def reproducer(case: dict, strokes: int) -> str:
 
 def make_simulator(case: dict, surface):
     s = case["sim"]
-    model = wc.TissueModel.from_surface(surface)
+    material = wc.Material(foundation_stiffness=DEFAULT_FOUNDATION_STIFFNESS) if s.get("foundation") else None
+    model = wc.TissueModel.from_surface(surface, material=material)
     gravity = {} if s["gravity"] else {"gravity": None}  # the Simulator's default: standard gravity
     sim = wc.Simulator(model, dt=1e-3, cutting=wc.CutSettings(interval=s["interval"]),
                        integrator=s["integrator"], **gravity)
@@ -68,7 +70,7 @@ def _stroke_row(case, index, spec, stroke, result, sim, surface, wall) -> dict:
         "case": case.get("named") or case["seed"], "stroke": index, "kind": case["kind"],
         "spacing_mm": 1e3 * surface.spacing, "nodes": len(surface.points),
         "integrator": case["sim"]["integrator"], "interval_ms": 1e3 * case["sim"]["interval"],
-        "gravity": case["sim"]["gravity"], "path": spec["path"], "length_mm": 1e3 * stroke.length,
+        "gravity": case["sim"]["gravity"], "foundation": case["sim"].get("foundation", False), "path": spec["path"], "length_mm": 1e3 * stroke.length,
         "tilt_deg": spec["tilt_deg"], "radius_mm": 1e3 * spec["radius"], "depth_mm": 1e3 * spec["depth"],
         "speed_mm_s": 1e3 * spec["speed"], "events": result.events, "edits": result.edits,
         "incisions": result.incisions, "unfilled_holes": result.unfilled_holes,

@@ -266,23 +266,33 @@ class Cutter:
         nodes, corners = self._skin_near(sim, tool, x)
         rest = self.model.points[nodes]
         now = self._locate(tool, x[nodes], rest, corners)
-        if now is None or not now.inside:
+        if not self._can_start(sim, tool, now):
             return
         entry = now
         if self.settings.force_threshold == 0.0:
-            entry = self._first_crossing(poses, x[nodes], rest, corners) or now
+            entry = self._first_crossing(sim, poses, x[nodes], rest, corners) or now
         self.start_incision(sim, entry.point, entry.normal, self.settings.sweep_radius or tool.radius)
         self.extend_incision(sim, now.point, now.normal)
 
-    def _first_crossing(self, poses: list[Tool], x: np.ndarray, rest: np.ndarray,
+    def _can_start(self, sim: CutHost, tool: Tool, crossing: Crossing | None) -> bool:
+        """True if an incision may start at ``crossing``: the blade is in the skin, its axis
+        through a live triangle or tissue touching it (a blade pressed against the edge of an
+        opening - an earlier wound - cuts into it)."""
+        if crossing is None or not crossing.inside:
+            return False
+        if crossing.pierced:
+            return True
+        return len(self._nodes_near(sim, tool.p0, tool.p1, tool.radius + 0.5 * self.spacing)) > 0
+
+    def _first_crossing(self, sim: CutHost, poses: list[Tool], x: np.ndarray, rest: np.ndarray,
                         corners: np.ndarray) -> Crossing | None:
-        """The crossing of the earliest pose whose axis crosses the skin (binary search: the
-        tool goes in once between two events)."""
+        """The crossing of the earliest pose whose axis crosses the skin where an incision may
+        start (binary search: the tool goes in once between two events)."""
         lo, hi, found = 0, len(poses) - 1, None
         while lo <= hi:
             mid = (lo + hi) // 2
             hit = self._locate(poses[mid], x, rest, corners)
-            if hit is None or not hit.inside:
+            if not self._can_start(sim, poses[mid], hit):
                 lo = mid + 1
             else:
                 found, hi = hit, mid - 1
@@ -462,13 +472,13 @@ class Cutter:
         positions)."""
         editor = self.editor
         positions = NodePositions(self._positions_view(sim))
-        result = {"created": [], "yellow": [], "blue": [], "unfilled": [], "under_tool": False}
+        result = {"created": [], "yellow": [], "blue": [], "unfilled": [], "waiting": [], "under_tool": False}
         if editor.report.deleted_triangle_corners or inc.open_chains:
             result = fill_hole(editor, inc, editor.report.deleted_triangle_corners, positions,
                                inc.open_chains, defer_slivers=defer_slivers, tool=tool)
         # a hole waiting for the tool to move on does not count against the sliver deferrals
         inc.deferrals = inc.deferrals + 1 if result["unfilled"] and not result["under_tool"] else 0
-        inc.open_chains = result["unfilled"]  # retried at the next event
+        inc.open_chains = result["unfilled"] + result["waiting"]  # retried at the next event
         report = editor.finish()
         self._carry_links(inc, report, positions)
         self._open_links(inc)

@@ -29,7 +29,7 @@ _SAMPLES_PER_SEGMENT = 48
 
 def closest_on_polyline(points: np.ndarray, poly: np.ndarray):
     """For points (m, 3) and a polyline (k, 3): (segment index (m,), parameter on it in [0, 1]
-    (m,), closest point (m, 3) [m], distance (m,) [m])."""
+    (m,), closest point (m, 3) [m], distance (m,) [m]) (every segment tried: O(m k))."""
     a, b = poly[:-1], poly[1:]
     ab = b - a
     denom = np.maximum((ab * ab).sum(axis=1), 1e-300)
@@ -39,6 +39,30 @@ def closest_on_polyline(points: np.ndarray, poly: np.ndarray):
     k = np.argmin(dist, axis=1)
     rows = np.arange(len(points))
     return k, t[rows, k], closest[rows, k], dist[rows, k]
+
+
+def closest_on_dense_polyline(points: np.ndarray, poly: np.ndarray):
+    """``closest_on_polyline`` for a polyline (k, 3) that densely samples a smooth curve
+    (segments much shorter than its radius of curvature): the closest point is searched on
+    the segments around each point's nearest vertex (found with one matrix product), so the
+    cost is O(m k) multiply-adds and O(m) exact segment tests."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(poly) < 2:
+        return closest_on_polyline(points, np.concatenate([poly, poly]))
+    if len(poly) < 8:
+        return closest_on_polyline(points, poly)
+    d2 = (points * points).sum(axis=1)[:, None] - 2.0 * points @ poly.T + (poly * poly).sum(axis=1)[None]
+    nearest = np.argmin(d2, axis=1)
+    segments = np.clip(nearest[:, None] + np.arange(-2, 2)[None], 0, len(poly) - 2)  # (m, 4)
+    a, b = poly[segments], poly[segments + 1]
+    ab = b - a
+    denom = np.maximum((ab * ab).sum(axis=2), 1e-300)
+    t = np.clip(((points[:, None, :] - a) * ab).sum(axis=2) / denom, 0.0, 1.0)
+    closest = a + t[..., None] * ab
+    dist = np.linalg.norm(points[:, None, :] - closest, axis=2)
+    best = np.argmin(dist, axis=1)
+    rows = np.arange(len(points))
+    return segments[rows, best], t[rows, best], closest[rows, best], dist[rows, best]
 
 
 def _unit(v) -> np.ndarray:
@@ -56,7 +80,7 @@ def _max_distance(points: np.ndarray, curve: BezierChain) -> float:
     (within ~1e-4 of the chord length of the true distance)."""
     s = curve.segment_count
     dense = curve.evaluate(np.linspace(0.0, s, 64 * s + 1))
-    return float(polyline_distance(points, dense).max())
+    return float(closest_on_dense_polyline(points, dense)[3].max())
 
 
 class Incision:
@@ -210,7 +234,7 @@ class Incision:
         distance (m,) [m]) of points (m, 3); the side is taken in the skin's tangent plane
         at the closest point."""
         x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        k, t, closest, dist = closest_on_polyline(x, self._poly)
+        k, t, closest, dist = closest_on_dense_polyline(x, self._poly)
         u = self._cum[k] + t * np.diff(self._cum)[k]
         lateral = np.einsum("ij,ij->i", np.cross(self.tangent_at(u), x - closest), self.normal_at(u))
         return u, np.where(lateral >= 0.0, 1, -1), dist

@@ -15,6 +15,9 @@ from __future__ import annotations
 
 from collections import defaultdict
 
+import itertools
+import math
+
 import numpy as np
 
 from ..mesh.geometry import triangle_min_angles
@@ -98,12 +101,16 @@ def _runs(editor, a, b) -> bool:
 
 
 def _valid(tri, positions, normal) -> bool:
+    """True if the triangle has three distinct corners and turns the way of ``normal``."""
     a, b, c = tri
     if a == b or b == c or a == c:
         return False
-    p = positions[[a, b, c]]
-    n = np.cross(p[1] - p[0], p[2] - p[0])
-    return float(np.dot(n, normal)) > 1e-12 * float(np.dot(p[1] - p[0], p[1] - p[0]) + 1e-300)
+    # plain floats: this runs for every candidate triangle of every fill
+    (ax, ay, az), (bx, by, bz), (cx, cy, cz) = positions[[a, b, c]].tolist()
+    ux, uy, uz, wx, wy, wz = bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az
+    nx, ny, nz = float(normal[0]), float(normal[1]), float(normal[2])
+    turn = (uy * wz - uz * wy) * nx + (uz * wx - ux * wz) * ny + (ux * wy - uy * wx) * nz
+    return turn > 1e-12 * (ux * ux + uy * uy + uz * uz + 1e-300)
 
 
 def zip_strip(border, lips, positions, normal) -> list[tuple[int, int, int]]:
@@ -167,24 +174,28 @@ def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
         return (xy[b][0] - xy[a][0]) * (xy[c][1] - xy[a][1]) - (xy[b][1] - xy[a][1]) * (xy[c][0] - xy[a][0])
 
     def min_angle(a, b, c):
-        p = [np.array(xy[v]) for v in (a, b, c)]
+        p = [xy[v] for v in (a, b, c)]
         angles = []
         for k in range(3):
-            u, w = p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]
-            angles.append(np.arctan2(abs(u[0] * w[1] - u[1] * w[0]), u @ w))
+            (x0, y0), (x1, y1), (x2, y2) = p[k], p[(k + 1) % 3], p[(k + 2) % 3]
+            u, w = (x1 - x0, y1 - y0), (x2 - x0, y2 - y0)
+            angles.append(math.atan2(abs(u[0] * w[1] - u[1] * w[0]), u[0] * w[0] + u[1] * w[1]))
         return min(angles)
 
     while len(ring) > 3:
         best, best_q = None, -1.0
+        turns = [cross(ring[k - 1], ring[k], ring[(k + 1) % len(ring)]) for k in range(len(ring))]
+        # only a reflex (or flat) corner can lie inside an ear of a simple polygon
+        reflex = [v for v, turn in zip(ring, turns) if turn <= 0]
         for k in range(len(ring)):
             a, b, c = ring[k - 1], ring[k], ring[(k + 1) % len(ring)]
-            if cross(a, b, c) <= 0:
+            if turns[k] <= 0:
                 continue  # reflex or flat corner
             corners = {polygon[a], polygon[b], polygon[c]}
             if len(corners) < 3:
                 continue
             inside = any(cross(a, b, v) >= 0 and cross(b, c, v) >= 0 and cross(c, a, v) >= 0
-                         for v in ring if polygon[v] not in corners)
+                         for v in reflex if polygon[v] not in corners)
             if inside:
                 continue
             q = min_angle(a, b, c)
@@ -202,9 +213,10 @@ def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
     return [tuple(polygon[v] for v in tri) for tri in tris]
 
 
-def _lips_for_chain(incision, chain, theta_of, lip_slots):
+def _lips_for_chain(incision, chain, theta_of, lip_slots, onto_opening: bool = False):
     """The lip slots facing a border chain, ordered along it (decreasing theta); [] when a
-    closed chain does not hold the slit's start (it is then closed over, see ``fill_hole``)."""
+    closed chain does not hold the slit's start (it is then closed over, see ``fill_hole``).
+    ``onto_opening``: the chain's ends lie on an opening the cut ran into (``_notch``)."""
     total = 2.0 * incision.length
     closed = chain[0] == chain[-1]
     lip_node_ids = {node for node, *_ in lip_slots if node >= 0}
@@ -215,13 +227,18 @@ def _lips_for_chain(incision, chain, theta_of, lip_slots):
         hi, lo = total, 0.0
     else:
         hi, lo = theta_of(chain[0]), theta_of(chain[-1])
-    wraps = not closed and hi < lo
+    # both ends at one slit coordinate: around the whole slit (the chain leaves an earlier
+    # opening at the open tip and comes back to it there) if its nodes reach away from it
+    around = onto_opening and not closed and abs(hi - lo) < 1e-3 * incision.spacing and any(
+        abs(theta_of(v) - hi) > incision.spacing for v in chain[1:-1])
+    wraps = not closed and (hi < lo or around)
+    top = hi + total if wraps else hi
+    lo = hi if around else lo
     picked = []
     for node, theta, side, station in lip_slots:
         if node >= 0 and node in (chain[0], chain[-1]):
             continue  # shared end points are added below
         t = theta + total if wraps and theta <= hi else theta
-        top = hi + total if wraps else hi
         if closed and station == -1:
             continue  # the start closes the loop at both ends
         if lo < t < top:
@@ -255,12 +272,27 @@ class _LipSlots:
         self.theta = {node: theta for node, theta, *_ in self.slots if node >= 0}
         self.created: list[int] = []
         self._proposed: dict[int, tuple] = {}
+        self._version = 0
+        """Counts changes of the proposed and accepted lips."""
+        self._open_to: tuple | None = None
+        """(version, the slit's open end u [m]) last computed."""
+        self._projected: dict[int, tuple[float, int]] = {}
+        """node -> (u [m], side) of nodes projected onto the curve in this fill."""
+
+    def projected(self, nodes) -> list[tuple[float, int]]:
+        """(u [m], side) of each node's closest curve point (projected once per fill: the
+        positions do not change during it)."""
+        todo = [v for v in dict.fromkeys(nodes) if v not in self._projected]
+        if todo:
+            u, side, _ = self.incision.project(self.positions[todo])
+            self._projected.update(zip(todo, zip(u.tolist(), side.tolist())))
+        return [self._projected[v] for v in nodes]
 
     def theta_of(self, node) -> float:
         if node in self.theta:
             return self.theta[node]
-        u, side, _ = self.incision.project(self.positions[node][None])
-        return float(self.incision.theta(u, side)[0])
+        (u, side), = self.projected([node])
+        return float(self.incision.theta(u, side))
 
     def free_for(self, chain) -> list:
         """Slots not meshed elsewhere (no node yet, a node without triangles, or an end of
@@ -273,6 +305,7 @@ class _LipSlots:
         node would be made (a closed loop meets the start twice: one placeholder). Where a node
         of ``chain`` on the slot's side already lies within ``snap`` [m] of that place (the
         tissue has closed in on the curve there), that node serves as the lip instead."""
+        self._version += 1
         lips, here = [], {}
         inc = self.incision
         spare = self._snap_candidates(chain)
@@ -328,20 +361,59 @@ class _LipSlots:
             return None
         return key[1], self.incision.station_u[key[0]]
 
+    def _slit_end_u(self) -> float:
+        """Arc length [m] up to which the slit is open during this fill: its newest station
+        with a lip that exists or is proposed now while the tool cuts (the other side's lip
+        there follows), the curve's end after."""
+        inc = self.incision
+        if not inc.open_end:
+            return inc.length
+        key = self._version
+        if self._open_to is not None and self._open_to[0] == key:
+            return self._open_to[1]
+        self._open_to = key, self._newest_lip()
+        return self._open_to[1]
+
+    def _newest_lip(self) -> float:
+        inc = self.incision
+        have = {st for st, _ in self._proposed.values()} | {st for n, _, _, st in self.slots if n >= 0}
+        stations = [k for k in have if k >= 0]
+        return inc.station_u[max(stations)] if stations else 0.0
+
     def bridges(self, tri) -> bool:
-        """True if a triangle would join the slit's two lips behind its tip: it holds a left
-        and a right lip node and its third corner is not tissue ahead of both (only the
-        tissue ahead of an open slit's tip closes it)."""
-        sides = [self.lip_side(v) for v in tri]
-        left = [s for s in sides if s is not None and s[0] > 0]
-        right = [s for s in sides if s is not None and s[0] < 0]
-        if not left or not right:
-            return False
-        others = [v for v, s in zip(tri, sides) if s is None]
-        if not self.incision.open_end or len(others) != 1 or others[0] in self.theta:
-            return True
-        u, _, _ = self.incision.project(self.positions[others])
-        return float(u[0]) <= max(s[1] for s in left + right)
+        """True if a triangle would join the slit's two sides: it has corners beside the open
+        slit (0 < u < its open end) on both sides of the curve, or lip nodes of both sides
+        other than the tip's pair with a tissue node (an open slit's newest lip pair closes it
+        with the tissue ahead). The start and end nodes are on neither side."""
+        lips = [(v, self.lip_side(v)) for v in tri]
+        lip_sides = {side for _, side_u in lips if side_u is not None for side in (side_u[0],)}
+        ends = {self.incision.start_node, self.incision.end_node}
+        if len(lip_sides) == 2:
+            third = [v for v, side_u in lips if side_u is None]
+            tissue = len(third) == 1 and third[0] not in ends and third[0] not in self.theta
+            return not (tissue and self._tip_pair([side_u for _, side_u in lips if side_u is not None]))
+        side_of, upper = {v: side_u[0] for v, side_u in lips if side_u is not None}, None
+        for v, side_u in lips:
+            if side_u is not None or v in ends or v in self.theta:
+                continue
+            upper = self._slit_end_u() if upper is None else upper
+            (u, side), = self.projected([v])
+            if 1e-9 < u < upper:
+                side_of[v] = side
+        # a pair across the slit that is an edge of the mesh already (the tissue moved after
+        # it was made) is no new bridge
+        return any(side_of[a] != side_of[b] and not self._is_edge(a, b)
+                   for a, b in itertools.combinations(side_of, 2))
+
+    def _is_edge(self, a: int, b: int) -> bool:
+        """True if nodes a and b (placeholders included) share a live triangle."""
+        count = len(self.editor.node_triangles)
+        return a < count and b < count and bool(self.editor.triangles_with_edge(a, b))
+
+    def _tip_pair(self, lips) -> bool:
+        """True if ``lips`` ((side, u) each) are the two lips of the open slit's newest pair."""
+        return (self.incision.open_end and len(lips) == 2 and lips[0][1] == lips[1][1]
+                and lips[0][1] == self._slit_end_u())
 
     def proposed_inside(self, tool) -> bool:
         """True if a proposed new lip node lies inside the tool's cylinder."""
@@ -355,6 +427,7 @@ class _LipSlots:
         return False
 
     def discard(self) -> None:
+        self._version += 1
         for ph in self._proposed:
             if ph >= _PLACEHOLDER:
                 self.positions.extra.pop(ph, None)
@@ -363,6 +436,7 @@ class _LipSlots:
     def accept(self) -> dict[int, int]:
         """Make the proposed lip nodes (a snapped tissue node becomes the lip as it is);
         returns placeholder -> node."""
+        self._version += 1
         mapping = {}
         for ph, (station, side) in self._proposed.items():
             if ph < _PLACEHOLDER:
@@ -390,6 +464,7 @@ def _start_at_slit_start(chain, incision, slots: _LipSlots) -> list[int]:
     if incision.start_node in body:
         k = body.index(incision.start_node)
     else:
+        slots.projected(body)  # all at once
         k = int(np.argmin([min(slots.theta_of(v), total - slots.theta_of(v)) for v in body]))
     return body[k:] + body[:k] + [body[k]]
 
@@ -436,18 +511,23 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
 
     Returns:
         ``created`` lip nodes, new ``triangles``, ``chains`` count, ``unfilled`` chains
-        (borders left open), and the ``yellow`` / ``blue`` border nodes. Lip nodes are made
+        (borders left open), ``waiting`` chains (while the tool cuts: open onto an opening -
+        the tissue's edge, an earlier wound - with no station facing them yet; they join the
+        next event's hole), and the ``yellow`` / ``blue`` border nodes. Lip nodes are made
         only for chains whose fill is accepted. A closed chain that does not hold the slit's
         start (the slit's end was lost) is closed over without lips.
     """
     chains = hole_chains(editor, removed_corners, open_chains)
     slots = _LipSlots(editor, incision, positions)
-    triangles, unfilled, under_tool = [], [], False
+    triangles, unfilled, waiting, under_tool = [], [], [], False
     for chain in chains:
         chain = _start_at_slit_start(chain, incision, slots)
-        ordered = _lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain))
+        notch = _notch(editor, chain, slots)
+        ordered = _lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain), notch)
         if not ordered and chain[0] != chain[-1]:
-            continue  # a notch open to the tissue's outer border: no hole
+            if incision.open_end:
+                waiting.append(chain)  # open to an opening, no station here yet: kept for later
+            continue  # once the tool has gone: a notch open to an opening, no hole
         lips = slots.propose(ordered, chain, snap=0.5 * incision.spacing)
         if tool is not None and slots.proposed_inside(tool):
             slots.discard()
@@ -458,7 +538,7 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
         tris = _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers, slots)
         if tris is None:
             slots.discard()
-            if _notch(editor, chain, slots):
+            if notch:
                 incision.reached_border = True
             else:
                 unfilled.append(chain)  # leave it open (for now) rather than make an invalid mesh
@@ -470,12 +550,12 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
             editor.add_triangle(tri, positions, SpringClass.RED)
     classes = _classify(editor, incision, triangles, positions)
     return {"created": slots.created, "triangles": triangles, "chains": len(chains),
-            "unfilled": unfilled, "under_tool": under_tool, **classes}
+            "unfilled": unfilled, "waiting": waiting, "under_tool": under_tool, **classes}
 
 
 def _notch(editor, chain, slots: _LipSlots) -> bool:
-    """True if an open chain ends on the tissue's outer border away from the lips: the cut
-    has reached the edge of the tissue there and the region is open to the outside, not a
+    """True if an open chain ends on an opening away from the lips (the tissue's outer border
+    or an earlier wound): the cut has run into it there and the region is open to it, not a
     hole."""
     if chain[0] == chain[-1]:
         return False

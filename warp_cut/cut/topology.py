@@ -36,7 +36,15 @@ class NodePositions:
         if isinstance(index, (int, np.integer)):
             index = int(index)
             return self.extra[index] if index in self.extra else np.asarray(self.base[index], np.float64)
-        return np.array([self[int(i)] for i in index], dtype=np.float64).reshape(-1, 3)
+        index = np.asarray(index, dtype=np.int64).reshape(-1)
+        out = np.empty((len(index), 3), dtype=np.float64)
+        made = np.zeros(len(index), dtype=bool)
+        if self.extra:
+            made = np.isin(index, np.fromiter(self.extra, dtype=np.int64, count=len(self.extra)))
+            for k in np.flatnonzero(made):
+                out[k] = self.extra[int(index[k])]
+        out[~made] = self.base[index[~made]]
+        return out
 
     def __setitem__(self, index: int, value) -> None:
         self.extra[int(index)] = np.asarray(value, dtype=np.float64)
