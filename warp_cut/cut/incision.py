@@ -239,6 +239,24 @@ class Incision:
         lateral = np.einsum("ij,ij->i", np.cross(self.tangent_at(u), x - closest), self.normal_at(u))
         return u, np.where(lateral >= 0.0, 1, -1), dist
 
+    def chart(self, points) -> np.ndarray:
+        """Slit-chart coordinates (m, 2) [m] of points (m, 3): (u, v), u the arc length of the
+        closest curve point and v the signed distance from it (+ left), continued along the
+        tangent beyond either end. The chart follows the curve on curved skin, where any one
+        plane would fold; (u, v) turns counter-clockwise where the skin does about its
+        outward normal."""
+        x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        u, side, dist = self.project(x)
+        v = side * dist
+        ends = np.array([0.0, self.length])
+        for end, mask in zip(ends, (u <= 1e-12, u >= self.length - 1e-12)):
+            if mask.any():
+                t, n = self.tangent_at(end)[0], self.normal_at(end)[0]
+                rel = x[mask] - self.point_at(end)[0]
+                u[mask] = end + rel @ t
+                v[mask] = rel @ np.cross(n, t)
+        return np.stack([u, v], axis=1)
+
     def theta(self, u, side) -> np.ndarray:
         """Slit coordinate of points at arc length u [m] on a side (+1 left, -1 right)."""
         u = np.asarray(u, dtype=np.float64)

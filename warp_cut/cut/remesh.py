@@ -469,20 +469,26 @@ def _start_at_slit_start(chain, incision, slots: _LipSlots) -> list[int]:
     return body[k:] + body[:k] + [body[k]]
 
 
-def _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers, slots):
+def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_slivers, slots):
     """The matching strip between ``chain`` and ``lips``, or, where displaced nodes make it
     fold over or thin, the hole polygon cut into ears: the better-shaped valid one, or None
     when neither is valid (or, with ``defer_slivers``, both have an angle below
-    ``min_angle_deg``). No triangle may bridge the slit (``_LipSlots.bridges``)."""
+    ``min_angle_deg``). Orientation and ears are judged in the hole's coordinates ``chart``
+    (the skin facing +z), shapes on the skin (``positions``); no triangle may bridge the slit
+    (``_LipSlots.bridges``)."""
     candidates = []
     if lips:
-        strip = zip_strip(chain, lips, positions, normal)
-        if _acceptable(strip, editor, positions, normal, slots):
+        strip = zip_strip(chain, lips, chart, _UP)
+        if _acceptable(strip, editor, chart, _UP, slots):
             candidates.append(strip)
     if not candidates or _min_angle(candidates[0], positions) < min_angle_deg:
-        ears = ear_clip(_polygon(chain, lips), positions, normal)
-        if _acceptable(ears, editor, positions, normal, slots):
+        ears = ear_clip(_polygon(chain, lips), chart, _UP)
+        if _acceptable(ears, editor, chart, _UP, slots):
             candidates.append(ears)
+    facing = [c for c in candidates if _faces_out(c, positions, slots.incision)]
+    # a triangle turned over on the skin (nodes the tool displaced) waits for the tool to move
+    # on; once the hole must be filled, it is accepted rather than leave a hole
+    candidates = facing if facing or defer_slivers else candidates
     if not candidates:
         return None
     best = max(candidates, key=lambda c: _min_angle(c, positions))
@@ -534,8 +540,11 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
             unfilled.append(chain)  # under the tool: filled once it has moved on
             under_tool = True
             continue
-        normal = _hole_normal(incision, chain + lips, positions)
-        tris = _triangulate(chain, lips, editor, positions, normal, min_angle_deg, defer_slivers, slots)
+        tris = None
+        for view in _views(incision, positions, chain + lips):
+            tris = _triangulate(chain, lips, editor, view, positions, min_angle_deg, defer_slivers, slots)
+            if tris is not None:
+                break
         if tris is None:
             slots.discard()
             if notch:
@@ -575,12 +584,59 @@ def _on_outer_border(editor, v: int, lips: set) -> bool:
     return False
 
 
-def _hole_normal(incision, nodes, positions) -> np.ndarray:
-    """Unit outward normal of the skin at a hole: the incision's normal at the hole's nodes'
-    projections onto the curve, averaged."""
-    u, _, _ = incision.project(positions[list(nodes)])
-    n = incision.normal_at(u).sum(axis=0)
-    return n / np.linalg.norm(n)
+_UP = np.array([0.0, 0.0, 1.0])
+"""The skin's outward normal in a hole's coordinates (``_PlaneView``, ``_ChartView``)."""
+
+
+class _HoleCoordinates:
+    """A hole's nodes in 3D coordinates where the skin faces +z, indexed like
+    ``NodePositions``: the fill's orientation tests and ear clipping work in them."""
+
+    def __init__(self, nodes, xyz):
+        self._xyz = dict(zip(nodes, np.asarray(xyz, dtype=np.float64)))
+
+    def __getitem__(self, index):
+        if isinstance(index, (int, np.integer)):
+            return self._xyz[int(index)]
+        return np.array([self._xyz[int(i)] for i in index], dtype=np.float64).reshape(-1, 3)
+
+
+def _views(incision, positions, nodes):
+    """The hole's coordinates to triangulate it in, best first: seen along the skin's mean
+    outward normal there, or, where the skin turns by more than 30 degrees across the hole
+    (one plane would fold it), first in the slit chart."""
+    nodes = list(dict.fromkeys(nodes))
+    x = positions[nodes]
+    normals = incision.normal_at(incision.project(x)[0])
+    n = normals.sum(axis=0)
+    n /= np.linalg.norm(n)
+    plane = _plane_view(nodes, x, n)
+    if float((normals @ n).min()) >= math.cos(math.radians(30.0)):
+        return plane, _chart_view(incision, nodes, x)
+    return _chart_view(incision, nodes, x), plane
+
+
+def _plane_view(nodes, x, n) -> _HoleCoordinates:
+    """Nodes at ``x`` (k, 3) [m] seen along the unit normal ``n``."""
+    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    return _HoleCoordinates(nodes, x @ np.stack([e1, np.cross(n, e1), n]).T)
+
+
+def _chart_view(incision, nodes, x) -> _HoleCoordinates:
+    """Nodes at ``x`` (k, 3) [m] in the slit chart (u, v, 0) (``Incision.chart``), which
+    follows the curve on curved skin where one plane would fold."""
+    uv = incision.chart(x)
+    return _HoleCoordinates(nodes, np.column_stack([uv, np.zeros(len(nodes))]))
+
+
+def _faces_out(tris, positions, incision) -> bool:
+    """True if every triangle (node triples) turns on the skin (``positions`` [m]) the way of
+    the skin's outward normal at its centre (the incision's normal at its projection)."""
+    p = positions[[v for t in tris for v in t]].reshape(-1, 3, 3)
+    normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    u, _, _ = incision.project(p.mean(axis=1))
+    return bool((np.einsum("ij,ij->i", normals, incision.normal_at(u)) > 0.0).all())
 
 
 def _min_angle(tris, positions) -> float:
