@@ -649,13 +649,13 @@ def _min_angle(tris, positions) -> float:
 
 def _acceptable(strip, editor, positions, normal, slots: _LipSlots) -> bool:
     """A strip may join the mesh only if every triangle keeps the surface's orientation, none
-    bridges the slit, and no edge ends up with more than two triangles or the same direction
-    twice."""
+    bridges the slit or repeats a live triangle's corners, and no edge ends up with more
+    than two triangles or the same direction twice."""
     if not strip:
         return False
     directed = set()
     for tri in strip:
-        if not _valid(tri, positions, normal) or slots.bridges(tri):
+        if not _valid(tri, positions, normal) or slots.bridges(tri) or _exists(editor, tri):
             return False
         for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
             if (a, b) in directed:
@@ -672,6 +672,15 @@ def _acceptable(strip, editor, positions, normal, slots: _LipSlots) -> bool:
             if any(c[k] == a and c[(k + 1) % 3] == b for k in range(3)):
                 return False
     return True
+
+
+def _exists(editor, tri) -> bool:
+    """True if a live triangle has the corners of ``tri`` (in either winding)."""
+    count = len(editor.node_triangles)
+    if any(v >= count for v in tri):
+        return False
+    a, b, c = tri
+    return bool(editor.node_triangles[a] & editor.node_triangles[b] & editor.node_triangles[c])
 
 
 def _classify(editor, incision, triangles, positions) -> dict:
