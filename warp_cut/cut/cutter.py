@@ -108,6 +108,7 @@ class CutHost(Protocol):
 
     Attributes:
         time: Simulated time at the end of the last step [s].
+        dt: The step [s].
         tool_pose: The tool at the end of the last step, or None.
         collision: Whether the tool touches the tissue at all.
         tool_force: Reaction of the tissue on the tool over the last step [N], shape (3,).
@@ -232,7 +233,7 @@ class Cutter:
         else:
             self._poses.clear()
             self.end_incision(sim)
-        if sim.time - self._last_event < self.settings.interval - 1e-12:
+        if sim.time - self._last_event < self.settings.interval - 0.5 * sim.dt:  # the step nearest
             return
         self._last_event = sim.time
         self._retry_holes(sim)
@@ -459,7 +460,9 @@ class Cutter:
         cut = [sl for sl, k in zip(springs, crossing) if k and not ({int(v) for v in pairs[sl]} & own_lips)]
         separated = []
         editor.delete_springs(cut, residual=True, doomed_nodes=doomed, pending=separated)
-        inc.pending_links += [(i, j, rest, inc.length) for _, i, j, rest in separated]
+        known = {frozenset(link[:2]) for link in inc.pending_links}
+        inc.pending_links += [(i, j, rest, inc.length) for _, i, j, rest in separated
+                              if frozenset((i, j)) not in known]  # tissue re-closed and cut again
         editor.delete_springs(springs, residual=False)  # grazed on one side, or at own lips
         editor.delete_nodes(sorted(doomed))
 

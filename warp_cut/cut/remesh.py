@@ -449,6 +449,7 @@ class _LipSlots:
             self.incision.set_lip_node(station, side, node)
             self.slots = [(node if (st == station and sd == side) else n, th, sd, st)
                           for n, th, sd, st in self.slots]
+            self.theta[node] = next(th for n, th, sd, st in self.slots if n == node)
             mapping[ph] = node
         self._proposed.clear()
         return mapping

@@ -165,9 +165,17 @@ class TopologyEditor:
 
     def make_links(self, pairs, rest_lengths) -> None:
         """Residual-stress links between node pairs (l, 2) for springs of rest lengths (l,) [m]
-        (``TissueModel.add_residual_links``: sigma_r x thickness x rest length)."""
-        if not len(pairs):
+        (``TissueModel.add_residual_links``: sigma_r x thickness x rest length); a pair already
+        joined by a link gets no second one."""
+        fresh, seen = [], set()
+        for (i, j), rest in zip(pairs, rest_lengths):  # one link per node pair
+            key = frozenset((int(i), int(j)))
+            if key not in seen and not self.node_links[int(i)] & self.node_links[int(j)]:
+                seen.add(key)
+                fresh.append(((int(i), int(j)), rest))
+        if not fresh:
             return
+        pairs, rest_lengths = [p for p, _ in fresh], [r for _, r in fresh]
         new = self.model.add_residual_links(pairs, rest_lengths)
         for slot, (i, j) in zip(new, pairs):
             self.node_links[int(i)].add(int(slot))
