@@ -484,21 +484,31 @@ class Cutter:
         inc.open_chains = result["unfilled"] + result["waiting"]  # retried at the next event
         report = editor.finish()
         self._carry_links(inc, report, positions)
-        self._open_links(inc)
+        self._open_links(inc, positions)
         return report, result, positions
 
-    def _open_links(self, inc: Incision) -> None:
+    def _open_links(self, inc: Incision, positions: NodePositions) -> None:
         """Make the residual links of the springs the cut separated behind the slit's tip (all
-        of them once the tool has gone); those whose node a later event deleted are dropped."""
+        of them once the tool has gone). A node a later event deleted is replaced by the lip
+        that took its place on its side (``_Places``); the link is lost only if there is none."""
         tip_u = inc.tip_u(self.model.active) if inc.open_end else np.inf
         due = [link for link in inc.pending_links if link[3] <= tip_u]
         if not due:
             return
         inc.pending_links = [link for link in inc.pending_links if link[3] > tip_u]
         active = self.model.active
-        live = [(i, j, rest) for i, j, rest, _ in due if active[i] and active[j]]
-        self.totals["lost_links"] += len(due) - len(live)
-        self.editor.make_links([(i, j) for i, j, _ in live], [rest for _, _, rest in live])
+        lips = [v for v in inc.left + inc.right if v >= 0 and active[v]]
+        places = _Places(inc, positions, lips, [], inc.sweep_radius + 1.5 * self.spacing)
+        pairs, rests = [], []
+        for i, j, rest, _ in due:
+            a = i if active[i] else places.taking(positions[i], exclude={j})
+            b = j if active[j] else places.taking(positions[j], exclude={a})
+            if a < 0 or b < 0 or a == b:
+                self.totals["lost_links"] += 1
+                continue
+            pairs.append((a, b))
+            rests.append(rest)
+        self.editor.make_links(pairs, rests)
 
     def _carry_links(self, inc: Incision, report, positions: NodePositions) -> None:
         """Move each residual link that lost a node in this edit to the node that took that

@@ -524,6 +524,7 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
         only for chains whose fill is accepted. A closed chain that does not hold the slit's
         start (the slit's end was lost) is closed over without lips.
     """
+    _drop_islands(editor, removed_corners, open_chains)
     chains = hole_chains(editor, removed_corners, open_chains)
     slots = _LipSlots(editor, incision, positions)
     triangles, unfilled, waiting, under_tool = [], [], [], False
@@ -561,6 +562,20 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
     classes = _classify(editor, incision, triangles, positions)
     return {"created": slots.created, "triangles": triangles, "chains": len(chains),
             "unfilled": unfilled, "waiting": waiting, "under_tool": under_tool, **classes}
+
+
+def _drop_islands(editor, removed_corners, open_chains) -> None:
+    """Delete the triangles at the hole that share no edge with another triangle (left
+    standing alone inside it by earlier edits): their corners join the hole's border, and a
+    lip among them is free to be placed again."""
+    near = {v for c in removed_corners for v in c} | {v for chain in open_chains for v in chain}
+    corners = editor.model.triangle_table.column("corners")
+    islands = []
+    for t in {t for v in near for t in editor.node_triangles[v]}:
+        a, b, c = (int(v) for v in corners[t])
+        if all(len(editor.triangles_with_edge(i, j)) == 1 for i, j in ((a, b), (b, c), (c, a))):
+            islands.append(t)
+    editor.delete_triangles(islands)
 
 
 def _notch(editor, chain, slots: _LipSlots) -> bool:
