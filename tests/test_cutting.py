@@ -1,8 +1,13 @@
-"""kernels/cutting.py and warp_cut/cutting.py: the three-stage cut keeps the mesh valid.
+"""The three-stage cut (kernels/cutting.py, warp_cut/cut/) on a resting patch: Stage 1 kernels
+against brute force, and whole cuts against the rules the cut states for itself.
 
-Most tests drive the Cutter directly on a resting patch (no physics step), so the geometry
-at every edit is known; the width-time test runs the bundled straight incision.
+The cuts here are driven directly (``Cutter.start_incision`` / ``extend_incision`` /
+``end_incision``) on a patch that takes no physics step, so every node is where the cut put it
+and each rule (station spacing, lip offset, deviation, open slit, stable step) can be checked
+exactly. tests/test_cut_scenes.py runs the bundled scenes, with physics.
 """
+
+import math
 
 import numpy as np
 import pytest
@@ -16,8 +21,15 @@ from warp_cut.cut.classes import NodeClass, SpringClass
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh.checks import check_mesh, triangle_min_angles
+from warp_cut.mesh.surfaces import jittered_delaunay
 
 SPACING = 0.002
+"""Node spacing of the test patches [m]."""
+
+SLIVER_DEG = 10.0
+"""Smallest angle [deg] a triangle the cut makes may have: SPEC section 4 counts triangles below
+10 deg as slivers. A thin triangle gives its nodes little lumped mass (one third of its small
+area) while its springs keep their stiffness, so it shrinks the stable step ~ sqrt(m / k)."""
 
 
 # ------------------------------------------------------------------ Stage 1 kernels
@@ -97,12 +109,21 @@ def test_parallel_and_degenerate_segments():
     assert got == {0}
 
 
-# ------------------------------------------------------------------ whole cuts on a resting patch
+# ------------------------------------------------------------------ helpers for whole cuts
 def patch_sim(size=(0.02, 0.02), pinned="border", **cut):
+    """A patch of SPACING in the XY plane with a Cutter; no gravity, and no step is taken, so
+    every node stays where it was made."""
     model = TissueModel.from_patch(size, SPACING, pinned=pinned)
     sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE,
                     cutting=CutSettings(**cut) if cut else True)
     return model, sim
+
+
+def between_rows(model):
+    """y [m] halfway between the two lattice rows around y = 0: a cut along it meets no node."""
+    rows = np.unique(model.points[:, 1].round(9))
+    k = np.searchsorted(rows, 0.0, side="right")
+    return 0.5 * (rows[k - 1] + rows[k])
 
 
 def assert_valid(sim, where=""):
@@ -126,33 +147,128 @@ def assert_valid(sim, where=""):
 
 
 def cut_along(sim, points, radius=0.001, step=0.0003, check=True):
-    """Start at points[0] and extend in steps of ``step`` [m] along the polyline."""
+    """Start at points[0], extend in steps of ``step`` [m] along the polyline, end the incision;
+    with ``check``, the mesh is checked after every event and after the end. Like a tool that
+    goes on cutting: when the Cutter ends an incision that ran into an opening (the tissue's
+    edge, an earlier wound), the next starts where the tool was."""
     cutter = sim.cutter
+    points = [np.asarray(p, dtype=np.float64) for p in points]
     cutter.start_incision(sim, points[0], [0, 0, 1], radius)
+    last = points[0]
     for a, b in zip(points[:-1], points[1:]):
         n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
         for k in range(1, n + 1):
-            cutter.extend_incision(sim, a + (b - a) * k / n)
+            if cutter.current is None:
+                cutter.start_incision(sim, last, [0, 0, 1], radius)
+            last = a + (b - a) * k / n
+            cutter.extend_incision(sim, last)
             if check:
-                assert_valid(sim, f"after the cut reached {a + (b - a) * k / n}")
+                assert_valid(sim, f"after the cut reached {last}")
     cutter.end_incision(sim)
+    if check:
+        assert_valid(sim, "after the end of the incision")
 
 
+def arc(centre, radius, start_deg, stop_deg, step=0.0003):
+    """Points (k, 3) [m] every ~``step`` along a circular arc in the XY plane."""
+    n = max(2, int(np.ceil(radius * np.radians(abs(stop_deg - start_deg)) / step)) + 1)
+    phi = np.radians(np.linspace(start_deg, stop_deg, n))
+    return np.column_stack([centre[0] + radius * np.cos(phi), centre[1] + radius * np.sin(phi), np.zeros(n)])
+
+
+def assert_station_rules(inc):
+    """Stations of a finished incision (``Incision.plan_stations``): consecutive ones exactly a
+    spacing apart, the first 0.5-1 spacing from the start, the last 0.5-1.5 spacings from the
+    end (after ``end_incision`` the clearance is half a spacing, and one more station would
+    fit if the gap were 1.5 spacings or more)."""
+    sp, u = inc.spacing, np.asarray(inc.station_u)
+    assert len(u) > 0
+    np.testing.assert_allclose(np.diff(u), sp, rtol=1e-9)
+    assert 0.5 * sp * (1 - 1e-9) <= u[0] <= sp * (1 + 1e-9), (u[0], sp)
+    assert 0.5 * sp * (1 - 1e-9) <= inc.length - u[-1] <= 1.5 * sp * (1 + 1e-9), (inc.length - u[-1], sp)
+
+
+def bridging_edges(inc, x, triangles, samples=33):
+    """Edges (e, 2) of ``triangles`` that cross the incision's curve strictly between its start
+    and end: tissue closing the slit. Edges at the start or end node (which lie on the curve)
+    are left out. An edge with ends on either side is sampled; where the side flips, the edge
+    crosses the curve itself if it passes within one sample step of it there (crossing the
+    curve's extension beyond an end, it passes the end point at a distance, with u clamped)."""
+    edges = np.unique(np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    ends = [v for v in (inc.start_node, inc.end_node) if v >= 0]
+    edges = edges[~np.isin(edges, ends).any(axis=1)]
+    side = inc.project(x[edges.ravel()])[1].reshape(-1, 2)
+    edges = edges[side[:, 0] != side[:, 1]]
+    if not len(edges):
+        return edges
+    s = np.linspace(0.0, 1.0, samples)
+    a, b = x[edges[:, 0]], x[edges[:, 1]]
+    u, side, dist = (v.reshape(len(edges), samples) for v in
+                     inc.project((a[:, None] + s[None, :, None] * (b - a)[:, None]).reshape(-1, 3)))
+    k = np.argmax(side[:, 1:] != side[:, :-1], axis=1)
+    rows = np.arange(len(edges))
+    step = np.linalg.norm(b - a, axis=1) / (samples - 1)
+    near = np.minimum(dist[rows, k], dist[rows, k + 1]) <= step
+    inside = (u[rows, k] > 1e-12) & (u[rows, k] < inc.length - 1e-12)
+    return edges[near & inside]
+
+
+def border_loop(triangles, start):
+    """The loop of border edges (each used by one triangle) through node ``start``: its nodes
+    from ``start`` on, in the direction of the triangles' winding ([] if ``start`` is not on
+    the border; the winding is consistent, so the border edges chain into directed loops)."""
+    half = {(int(a), int(b)) for a, b in triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)}
+    after = {a: b for a, b in half if (b, a) not in half}
+    loop, v = [start], after.get(start)
+    while v is not None and v != start and len(loop) <= len(after):
+        loop.append(v)
+        v = after.get(v)
+    return loop if v == start else []
+
+
+def assert_open_slit(sim, inc, geometric=False):
+    """The slit of a finished incision is open along its whole length: the start node, every
+    station's two lip nodes and the end node are alive, and the mesh's border runs round the
+    slit through them - from the start along one lip's nodes in station order to the end, and
+    back along the other lip's - with nothing else on it: no triangle joins the two lips,
+    none buries a lip node inside the tissue. ``geometric`` (a patch that has not moved): no
+    live edge crosses the incision's curve between its ends either."""
+    active = sim.model.active
+    assert all(v >= 0 and active[v] for v in inc.left + inc.right), (inc.left, inc.right)
+    assert inc.start_node >= 0 and active[inc.start_node]
+    assert inc.end_node >= 0 and active[inc.end_node]
+    loop = border_loop(sim.model.triangles, inc.start_node)
+    assert inc.end_node in loop, "the start and end nodes are not on one border loop: the slit is closed"
+    k = loop.index(inc.end_node)
+    arcs = sorted([loop[1:k], loop[k + 1:][::-1]], key=lambda arc: arc[:1] != inc.left[:1])
+    assert arcs == [inc.left, inc.right], f"border from start to end: {arcs}, lips: {inc.left}, {inc.right}"
+    if geometric:
+        bridges = bridging_edges(inc, sim.positions.astype(np.float64), sim.model.triangles)
+        assert not len(bridges), f"edges across the slit: {bridges.tolist()}"
+
+
+# ------------------------------------------------------------------ whole cuts on a resting patch
 def test_straight_cut_structure():
+    """A 12 mm cut between two lattice rows (no node on its path): stations and lips where the
+    rules put them, node and spring classes as their definitions say, residual links across
+    the cut, no sliver."""
     model, sim = patch_sim()
     n_springs = model.spring_count
-    # between two rows of the lattice (rows at y = k * 1.67 mm), so no tissue node is on the path
-    y = 0.5 * (10.0 / 6.0) * 1e-3
-    cut_along(sim, [np.array([-0.006, y, 0.0]), np.array([0.006, y, 0.0])], radius=0.0006)
+    y = between_rows(model)
+    radius = 0.0006
+    cut_along(sim, [np.array([-0.006, y, 0.0]), np.array([0.006, y, 0.0])], radius=radius)
     inc = sim.cutter.incisions[0]
-    assert inc.length == pytest.approx(0.012, rel=1e-6)
-    # interior stations every spacing with a lip node on each side, and the slit's end nodes
-    assert len(inc.station_u) == 5 and all(v >= 0 for v in inc.left + inc.right)
+    assert inc.length == pytest.approx(0.012, rel=1e-6)  # a straight path is fitted exactly
+    assert inc.lip_offset == pytest.approx(0.25 * radius)  # the documented default
+    assert_station_rules(inc)
     assert inc.start_node >= 0 and inc.end_node >= 0
-    x = sim.positions
-    left, right = x[inc.left], x[inc.right]
-    assert np.all(left[:, 1] > y) and np.all(right[:, 1] < y)  # lips on their own sides
-    np.testing.assert_allclose(np.abs(left[:, 1] - y), 0.25 * 0.0006, atol=1e-9)  # offset 0.25 r
+    assert min(inc.left + inc.right) >= 0 and model.active[inc.left + inc.right].all()  # both lips
+    # every lip at its station, on its own side (left = normal x tangent = +y), lip_offset off
+    x = sim.positions.astype(np.float64)
+    centre = inc.point_at(inc.station_u)
+    across = np.array([0.0, inc.lip_offset, 0.0])
+    np.testing.assert_allclose(x[inc.left], centre + across, atol=1e-9)  # float32 positions
+    np.testing.assert_allclose(x[inc.right], centre - across, atol=1e-9)
     # classes: lips, yellow around the two ends, blue along the sides, red and green springs
     cls = model.node_class
     assert set(cls[inc.left + inc.right]) == {NodeClass.LIP}
@@ -175,17 +291,131 @@ def test_straight_cut_structure():
     assert len(yellow) >= 4 and len(blue) >= 2
     springs = model.spring_class
     assert (springs == SpringClass.RED).sum() >= len(blue) and (springs == SpringClass.GREEN).sum() > 0
-    # the cut springs crossing the line became residual links; none were made from new springs
+    # the cut springs crossing the line became residual links; each spans the incision: its
+    # nodes on either side, and the line between them crosses the swept capsule (the cut's
+    # ends and a sweep radius beyond them, the capsule's round caps)
     assert model.link_count == sim.cutter.totals["residual_links"] > 0
     for i, j in model.links:
-        assert (x[i, 1] - y) * (x[j, 1] - y) < 0  # each link spans the incision
-    # no slivers among the triangles the cut made
+        assert (x[i, 1] - y) * (x[j, 1] - y) < 0
+        at = x[i, 0] + (y - x[i, 1]) / (x[j, 1] - x[i, 1]) * (x[j, 0] - x[i, 0])
+        assert -0.006 - radius <= at <= 0.006 + radius
     made = sim.cutter.live_new_triangles()
-    assert triangle_min_angles(x, model.triangles[made]).min() > 10.0
+    assert triangle_min_angles(x, model.triangles[made]).min() > SLIVER_DEG
     assert model.spring_count != n_springs
 
 
+def stroke(kind, model):
+    """(polyline (k, 3) [m], tool radius [m]) of a named test stroke on a 20 mm patch."""
+    y = between_rows(model)
+    if kind == "between rows":
+        return [np.array([-0.006, y, 0.0]), np.array([0.006, y, 0.0])], 0.0006
+    if kind == "along a row":  # through nodes and along edges
+        return [np.array([-0.006, 0.0, 0.0]), np.array([0.006, 0.0, 0.0])], 0.001
+    if kind == "oblique":  # 30 degrees to the rows
+        d = 0.005 * np.array([np.cos(np.pi / 6), np.sin(np.pi / 6), 0.0])
+        return [-d, d], 0.0008
+    return list(arc((0.0, -0.004), 0.006, 30.0, 150.0)), 0.0008  # "arc": 12.6 mm of a 6 mm circle
+
+
+@pytest.mark.parametrize("kind", [
+    "between rows", "along a row", "oblique",
+    pytest.param("arc", marks=pytest.mark.xfail(
+        strict=True, reason="on the arc's outer side the fill makes triangles of lip nodes only (start-R0-R1, "
+                            "start-R1-R3, R1-R2-R3): lips R0-R2 are buried and the chord R1-R3 crosses the curve "
+                            "into the slit")),
+])
+def test_finished_stroke_leaves_an_open_slit(kind):
+    """After end_incision: a valid mesh (checked in cut_along), one incision, no hole left,
+    stations by their rules and the slit open from its start node to its end node."""
+    model, sim = patch_sim()
+    points, radius = stroke(kind, model)
+    cut_along(sim, points, radius=radius)
+    cut = sim.cutter.metrics(sim.positions)["cut"]
+    assert cut["incisions"] == 1 and cut["unfilled_holes"] == 0
+    inc = sim.cutter.incisions[0]
+    assert not inc.open_end and not inc.open_chains
+    assert_station_rules(inc)
+    assert_open_slit(sim, inc, geometric=True)
+
+
+@pytest.mark.parametrize("kind", [
+    "between rows", "oblique",
+    pytest.param("along a row", marks=pytest.mark.xfail(
+        strict=True, reason="a cut along a lattice row (through its nodes) leaves a triangle of 8.4 deg "
+                            "near its start")),
+    pytest.param("arc", marks=pytest.mark.xfail(
+        strict=True, reason="the 6 mm arc leaves a triangle of 8.7 deg")),
+])
+def test_finished_stroke_makes_no_sliver(kind):
+    """No triangle the cut made (and left alive) has an angle below SLIVER_DEG."""
+    model, sim = patch_sim()
+    points, radius = stroke(kind, model)
+    cut_along(sim, points, radius=radius, check=False)
+    made = sim.cutter.live_new_triangles()
+    assert triangle_min_angles(sim.positions, model.triangles[made]).min() > SLIVER_DEG
+
+
+@pytest.mark.parametrize("kind", ["between rows", "arc"])
+def test_lip_deviation_on_a_resting_patch(kind):
+    """``max_deviation_m``: lips are made lip_offset off the curve, and the curve lies within
+    ``tolerance`` of the contact path; with no step taken nothing moves them, so the largest
+    distance of a lip from the path is lip_offset to within the tolerance (plus, on the arc,
+    the sagitta s^2 / 8R of the path's chords: the measure takes the path as a polyline)."""
+    model, sim = patch_sim()
+    points, radius = stroke(kind, model)
+    cut_along(sim, points, radius=radius, check=False)
+    inc = sim.cutter.incisions[0]
+    m = sim.cutter.metrics(sim.positions)["incision"]
+    x = sim.positions.astype(np.float64)[inc.left + inc.right]
+    if kind == "arc":
+        own = np.abs(np.linalg.norm(x[:, :2] - [0.0, -0.004], axis=1) - 0.006)
+        chord = np.linalg.norm(np.diff(np.asarray(points), axis=0), axis=1).max()
+        slack = chord**2 / (8 * 0.006)
+    else:
+        own, slack = np.abs(x[:, 1] - points[0][1]), 0.0
+    assert m["max_deviation_m"] == pytest.approx(own.max(), abs=slack + 1e-9)
+    assert abs(m["max_deviation_m"] - inc.lip_offset) <= inc.tolerance + slack
+    # a flat patch: the 3D distance is the in-plane one
+    assert m["max_deviation_3d_m"] == pytest.approx(m["max_deviation_m"], abs=1e-9)
+
+
+def test_latency_has_one_entry_per_event_and_stage():
+    """``latency_ms``: every cut event times each stage once; no bound on the times here (that
+    belongs to the benchmarks), only that they are real durations."""
+    model, sim = patch_sim()
+    points, radius = stroke("oblique", model)
+    cut_along(sim, points, radius=radius, check=False)
+    cutter = sim.cutter
+    metrics = cutter.metrics(sim.positions)
+    events = metrics["cut"]["events"]
+    assert events == cutter.totals["events"] > 0
+    for name, values in cutter.latency_ms.items():
+        v = np.asarray(values)
+        assert len(v) == events and np.all(np.isfinite(v)) and np.all(v >= 0.0), name
+        summary = metrics["latency_ms"][name]
+        assert summary["events"] == events
+        assert 0.0 <= summary["p50_ms"] <= summary["p99_ms"] <= summary["max_ms"] == pytest.approx(v.max())
+
+
+def test_each_cut_spring_leaves_one_residual_link():
+    """SPEC section 1: a deleted spring whose two nodes survive leaves one link. The same cut
+    made in events 0.3 mm and 3 mm apart deletes the same springs, so it leaves the same links
+    (no pair twice, each a spring of the uncut patch: no link is carried on a resting cut)."""
+    links = []
+    for step in (0.0003, 0.003):
+        model, sim = patch_sim()
+        points, radius = stroke("between rows", model)
+        uncut = {tuple(p) for p in model.springs.tolist()}
+        cut_along(sim, points, radius=radius, step=step, check=False)
+        pairs = [tuple(sorted(p)) for p in model.links.tolist()]
+        assert sim.cutter.totals["carried_links"] == 0 and set(pairs) <= uncut
+        links.append(pairs)
+    assert len(set(links[0])) == len(links[0]), f"duplicate links: {len(links[0])} for {len(set(links[0]))} pairs"
+    assert sorted(links[0]) == sorted(links[1])
+
+
 def test_cut_from_border_to_border_severs_the_patch():
+    """A cut across the whole (unpinned) patch leaves two pieces joined by no spring."""
     model, sim = patch_sim(size=(0.02, 0.012), pinned="none")
     cut_along(sim, [np.array([-0.012, 0.0, 0.0]), np.array([0.012, 0.0, 0.0])])
     # the two halves share no triangle, spring or link... except residual links across
@@ -213,6 +443,7 @@ def components(node_count, springs, nodes):
 
 
 def test_cut_through_a_node_and_along_an_edge():
+    """A path through nodes and along edges (the degenerate cases of Stage 1) deletes them."""
     model, sim = patch_sim()
     x = model.points
     centre = int(np.argmin(np.linalg.norm(x, axis=1)))
@@ -223,9 +454,11 @@ def test_cut_through_a_node_and_along_an_edge():
 
 
 def test_crossing_an_earlier_cut_and_restarting():
+    """A cut across an earlier one, and a tool that stops and goes on, keep the mesh valid."""
     model, sim = patch_sim(size=(0.03, 0.03))
     cut_along(sim, [np.array([-0.008, 0.0, 0.0]), np.array([0.008, 0.0, 0.0])])
     cut_along(sim, [np.array([0.0, -0.008, 0.0]), np.array([0.0, 0.008, 0.0])])
+    restarted = len(sim.cutter.incisions)
     # a tool that stops (zero-length moves change nothing) and goes on
     cutter = sim.cutter
     cutter.start_incision(sim, np.array([-0.01, 0.01, 0.0]), [0, 0, 1], 0.001)
@@ -235,12 +468,93 @@ def test_crossing_an_earlier_cut_and_restarting():
     assert model.topology_version == version
     cutter.extend_incision(sim, np.array([-0.002, 0.01, 0.0]))
     assert_valid(sim, "after the restart")
-    assert len(cutter.incisions) == 3
+    assert len(cutter.incisions) == restarted + 1  # a new start is a new incision
 
 
+# ------------------------------------------------------------------ stable step of a cut mesh
+def stiffness_matrix(model, x):
+    """Dense stiffness K = -dF/dx (3n, 3n) [N/m] of the live springs and residual links at
+    positions x: a spring k (|d| - L0) d/|d| has the Jacobian block k (u u^T + (1 - L0/L)
+    (I - u u^T)), a link F d / sqrt(|d|^2 + eps^2) the block F / r (I - d d^T / r^2)."""
+    n = model.node_count
+    K = np.zeros((3 * n, 3 * n))
+    eye = np.eye(3)
+
+    def add(i, j, block):
+        for a, b, s in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
+            K[3 * a:3 * a + 3, 3 * b:3 * b + 3] += s * block
+
+    for (i, j), k, rest in zip(model.springs, model.stiffness, model.rest_lengths):
+        d = x[j] - x[i]
+        length = np.linalg.norm(d)
+        uu = np.outer(d, d) / length**2
+        add(i, j, k * (uu + (1.0 - rest / length) * (eye - uu)))
+    for (i, j), force, eps in zip(model.links, model.link_force, model.link_smoothing):
+        d = x[j] - x[i]
+        r = math.sqrt(d @ d + eps * eps)
+        add(i, j, force / r * (eye - np.outer(d, d) / r**2))
+    return K
+
+
+def iteration_radius(K, m, D, h):
+    """Spectral radius of one semi-implicit Euler step with implicit damping, linearised:
+    v' = (m v - h K x) / (m + h D), x' = x + h v' (per coordinate masses m, damping D)."""
+    a = 1.0 / (1.0 + h * D / m)
+    B = a[:, None] * (-h * K / m[:, None])
+    step = np.block([[np.eye(len(m)) + h * B, h * np.diag(a)], [B, np.diag(a)]])
+    return np.abs(np.linalg.eigvals(step)).max()
+
+
+def test_stable_step_of_a_cut_mesh_against_its_eigenvalues():
+    """The explicit step limit kept by the cutter on a cut 12 x 12 mm patch, against the
+    eigenvalues of its own stiffness (springs, lip springs and residual links) and masses.
+
+    Undamped, the exact limit is 2 / sqrt(lambda_max(M^-1 K)); the module's Gershgorin bound
+    takes lambda_max <= max_i R_i / m_i, R_i <= 2 (S_i + L_i) (S_i: the springs' stiffness sum at
+    node i, L_i: the links' largest stiffnesses F / eps; each counted at both ends). It is safe.
+    How safe: at the node a of that maximum, a unit in-plane displacement gives the Rayleigh
+    quotient of K_aa's in-plane block, whose largest eigenvalue is at least half its trace S_a
+    (springs of a flat mesh at their rest length lie in the plane, links add a positive block),
+    so lambda_max >= S_a / (2 m_a): the bound is at most 4 (1 + L_a / S_a) too large, and the
+    step at most X = 2 sqrt(1 + max_i L_i / S_i) too small.
+    Damped (D / m ~ 1e5 / s here, h D / m >> 1), the limit is that of the overdamped motion,
+    h < 2 D / lambda_max(K), linear in 1 / lambda: at most X^2 too small. Checked on the
+    linearised iteration itself: stable at 0.95 x the step, unstable at X^2 x.
+    """
+    model, sim = patch_sim(size=(0.012, 0.012))
+    y = between_rows(model)
+    cut_along(sim, [np.array([-0.004, y, 0.0]), np.array([0.004, y, 0.0])], radius=0.0006, check=False)
+    assert model.link_count > 0
+    x = sim.positions.astype(np.float64)
+    lengths = np.linalg.norm(x[model.springs[:, 1]] - x[model.springs[:, 0]], axis=1)
+    np.testing.assert_allclose(lengths, model.rest_lengths, rtol=1e-6)  # at rest: the premise above
+    free = model.active & ~model.pinned
+    dof = np.repeat(free, 3)
+    K = stiffness_matrix(model, x)[np.ix_(dof, dof)]
+    m = np.repeat(model.masses, 3)[dof]
+    lam = np.linalg.eigvalsh(K / np.sqrt(m)[:, None] / np.sqrt(m)[None, :]).max()
+    exact = 2.0 / math.sqrt(lam)
+    S = np.zeros(model.node_count)  # springs' stiffness sum at each node [N/m]
+    np.add.at(S, model.springs.ravel(), np.repeat(model.stiffness, 2))
+    L = np.zeros(model.node_count)  # links' largest stiffness F / eps summed at each node [N/m]
+    np.add.at(L, model.links.ravel(), np.repeat(model.link_force / model.link_smoothing, 2))
+    X = 2.0 * math.sqrt(1.0 + (L[free] / S[free]).max())
+    limit = sim.step_limit
+    assert limit.undamped_step <= exact * (1 + 1e-9)
+    assert exact <= X * limit.undamped_step, (exact / limit.undamped_step, X)
+    # damped: out-of-plane modes have no stiffness at rest (radius exactly 1, ~1e-7 in floats)
+    D = np.repeat(model.damping, 3)[dof]
+    assert limit.step >= limit.undamped_step
+    assert iteration_radius(K, m, D, 0.95 * limit.step) <= 1.0 + 1e-6
+    assert iteration_radius(K, m, D, X**2 * limit.step) > 1.0 + 1e-6
+
+
+# ------------------------------------------------------------------ random cuts
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(0, 2**31 - 1), st.integers(2, 5), st.floats(0.3, 1.2))
 def test_random_tool_paths_keep_the_mesh_valid(seed, corners, radius_in_spacings):
+    """Random polylines of 2-5 corners, crossing the border or themselves, with random tool
+    radii and event steps: the mesh is valid after every event (checked in cut_along)."""
     rng = np.random.default_rng(seed)
     model, sim = patch_sim(size=(0.02, 0.016))
     start = rng.uniform([-0.012, -0.01, 0], [0.012, 0.01, 0])
@@ -252,35 +566,49 @@ def test_random_tool_paths_keep_the_mesh_valid(seed, corners, radius_in_spacings
     cut_along(sim, pts, radius=radius_in_spacings * SPACING, step=rng.uniform(0.0002, 0.001))
 
 
-# ------------------------------------------------------------------ the width-time curve
-def test_straight_incision_width_rises_then_settles_lower(tmp_path):
-    from warp_cut.runner import run_scene
-    from warp_cut.scene import load_scene
-
-    scene = load_scene("straight_incision", ["tissue.size=[0.06,0.03]"])
-    result = run_scene(scene)
-    t = result.columns["t"]
-    w = result.columns["incision_width_m"]
-    m = result.metrics
-    assert m["mesh"]["valid"] and m["mesh"]["slivers"] == 0 and m["cut"]["unfilled_holes"] == 0
-    cut_done = t > 2.4  # the tool is out of the skin
-    plateau = w[t > t[-1] - 0.3]
-    peak = np.nanmax(w)
-    assert peak > 1.1 * plateau.mean()  # rose, then fell
-    assert plateau.std() < 0.01 * plateau.mean()  # and settled
-    assert np.nanmax(w[cut_done]) <= peak
-    assert m["incision"]["length_m"] == pytest.approx(0.04, rel=0.02)
+def disk_point(rng, radius):
+    """A point (3,) [m] uniformly distributed in the disk of ``radius`` about the origin."""
+    r, phi = radius * math.sqrt(rng.uniform()), rng.uniform(0, 2 * np.pi)
+    return np.array([r * math.cos(phi), r * math.sin(phi), 0.0])
 
 
-@pytest.mark.parametrize("integrator", ["semi_implicit", "implicit_euler", "xpbd"])
-def test_every_integrator_cuts_with_a_valid_mesh(integrator):
-    """The cut, residual links and the tool under each integrator: the run finishes, the mesh
-    is valid and the state finite (how far the cut gets is the integrator's physics)."""
-    from warp_cut.runner import run_scene
-    from warp_cut.scene import load_scene
+def disk_cut(seed, radius_in_spacings, check=True):
+    """Cut a straight stroke into a jittered Delaunay disk (radius 12 mm, jitter 0.25 spacing)
+    made from ``seed``, between two random points at least 2 spacings apart, with a tool of
+    ``radius_in_spacings`` spacings; returns the simulator. Both ends lie a tool radius and 2
+    spacings inside the pinned border: the swept capsule plus the grey area (the triangles it
+    touches, up to a spacing beyond it) stay clear of the tissue's edge, where the Cutter
+    would end the incision (one that runs into an opening ends there)."""
+    rng = np.random.default_rng(seed)
+    surface = jittered_delaunay(radius=0.012, spacing=SPACING, jitter=0.25, seed=int(rng.integers(2**31)))
+    sim = Simulator(TissueModel.from_surface(surface), dt=1e-3, gravity=None, device=DEVICE, cutting=True)
+    radius = radius_in_spacings * SPACING
+    inner = 0.012 - radius - 2 * SPACING
+    a = disk_point(rng, inner)
+    b = disk_point(rng, inner)
+    while np.linalg.norm(b - a) < 2 * SPACING:
+        b = disk_point(rng, inner)
+    cut_along(sim, [a, b], radius=radius, step=rng.uniform(0.0002, 0.001), check=check)
+    return sim
 
-    scene = load_scene("straight_incision", ["tissue.size=[0.05,0.03]", "duration=0.6",
-                                             f'solver.integrator="{integrator}"'])
-    m = run_scene(scene).metrics
-    assert m["finite"] and m["mesh"]["valid"], m["mesh"]["problems"]
-    assert m["cut"]["events"] > 0 and m["cut"]["deleted_springs"] > 0
+
+@settings(max_examples=10, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 2**31 - 1), st.floats(0.3, 1.2))
+def test_random_strokes_on_a_jittered_delaunay_disk(seed, radius_in_spacings):
+    """An irregular mesh: a straight stroke keeps the mesh valid after every event and leaves
+    one incision, no hole and the slit open (the same 10 examples on every run: a known
+    failing case is test_delaunay_disk_stroke_leaves_no_hole)."""
+    sim = disk_cut(seed, radius_in_spacings)
+    cut = sim.cutter.metrics(sim.positions)["cut"]
+    assert cut["incisions"] == 1 and cut["unfilled_holes"] == 0
+    assert_open_slit(sim, sim.cutter.incisions[0], geometric=True)
+
+
+@pytest.mark.xfail(strict=True, reason="a 9.0 mm stroke from (4.37, 0.97) to (-3.37, -3.07) mm with a 1.25 mm "
+                                       "tool, events 0.48 mm apart, leaves the hole [159, 73, 158] unfilled after "
+                                       "end_incision (unfilled_holes 1)")
+def test_delaunay_disk_stroke_leaves_no_hole():
+    """A case the property test above found: one incision and no hole after the stroke."""
+    sim = disk_cut(1124, 0.6253122516287821, check=False)
+    cut = sim.cutter.metrics(sim.positions)["cut"]
+    assert cut["incisions"] == 1 and cut["unfilled_holes"] == 0, cut

@@ -113,9 +113,10 @@ def _valid(tri, positions, normal) -> bool:
     return turn > 1e-12 * (ux * ux + uy * uy + uz * uz + 1e-300)
 
 
-def zip_strip(border, lips, positions, normal) -> list[tuple[int, int, int]]:
+def zip_strip(border, lips, positions, normal, forbidden=None) -> list[tuple[int, int, int]]:
     """Triangulate the strip between a border chain and a lip chain (both ordered the same
-    way along the strip, the border chain oriented like the surface's edges on it)."""
+    way along the strip, the border chain oriented like the surface's edges on it); where one
+    of the two next triangles is ``forbidden`` (a predicate on node triples), the other."""
     tris = []
     i = j = 0
     while i < len(border) - 1 or j < len(lips) - 1:
@@ -131,7 +132,9 @@ def zip_strip(border, lips, positions, normal) -> list[tuple[int, int, int]]:
             choice = "border" if d_border <= d_lips else "lips"
             first = along_border if choice == "border" else along_lips
             other = along_lips if choice == "border" else along_border
-            if len(set(first)) == 3 and not _valid(first, positions, normal) and _valid(other, positions, normal):
+            bad = (lambda t: len(set(t)) == 3 and (not _valid(t, positions, normal)
+                                                    or (forbidden is not None and forbidden(t))))
+            if bad(first) and not bad(other):
                 choice = "lips" if choice == "border" else "border"
         tri = along_border if choice == "border" else along_lips
         if len(set(tri)) == 3:
@@ -156,9 +159,10 @@ def _polygon(border, lips) -> list[int]:
     return out
 
 
-def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
+def ear_clip(polygon, positions, normal, forbidden=None) -> list[tuple[int, int, int]]:
     """Triangulate a simple polygon (node cycle, counter-clockwise about ``normal``) by cutting
-    ears, best (largest smallest angle) first; [] if the polygon is not simple."""
+    ears, best (largest smallest angle) first, never one whose nodes are ``forbidden`` (a
+    predicate on node triples); [] if the polygon is not simple or no ear is left."""
     n = np.asarray(normal, dtype=np.float64)
     e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
@@ -192,7 +196,7 @@ def ear_clip(polygon, positions, normal) -> list[tuple[int, int, int]]:
             if turns[k] <= 0:
                 continue  # reflex or flat corner
             corners = {polygon[a], polygon[b], polygon[c]}
-            if len(corners) < 3:
+            if len(corners) < 3 or forbidden is not None and forbidden((polygon[a], polygon[b], polygon[c])):
                 continue
             inside = any(cross(a, b, v) >= 0 and cross(b, c, v) >= 0 and cross(c, a, v) >= 0
                          for v in reflex if polygon[v] not in corners)
@@ -477,14 +481,19 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
     ``min_angle_deg``). Orientation and ears are judged in the hole's coordinates ``chart``
     (the skin facing +z), shapes on the skin (``positions``); no triangle may bridge the slit
     (``_LipSlots.bridges``)."""
+    lip_set = set(lips)
+
+    def lips_only(tri) -> bool:  # between the lips: it would cover the slit and bury one
+        return all(v in lip_set for v in tri)
+
     candidates = []
     if lips:
-        strip = zip_strip(chain, lips, chart, _UP)
-        if _acceptable(strip, editor, chart, _UP, slots):
+        strip = zip_strip(chain, lips, chart, _UP, lips_only)
+        if _acceptable(strip, editor, chart, _UP, slots, lips_only):
             candidates.append(strip)
     if not candidates or _min_angle(candidates[0], positions) < min_angle_deg:
-        ears = ear_clip(_polygon(chain, lips), chart, _UP)
-        if _acceptable(ears, editor, chart, _UP, slots):
+        ears = ear_clip(_polygon(chain, lips), chart, _UP, lips_only)
+        if _acceptable(ears, editor, chart, _UP, slots, lips_only):
             candidates.append(ears)
     facing = [c for c in candidates if _faces_out(c, positions, slots.incision)]
     # a triangle turned over on the skin (nodes the tool displaced) waits for the tool to move
@@ -663,15 +672,15 @@ def _min_angle(tris, positions) -> float:
     return float(triangle_min_angles(corners, np.arange(len(corners)).reshape(-1, 3)).min())
 
 
-def _acceptable(strip, editor, positions, normal, slots: _LipSlots) -> bool:
+def _acceptable(strip, editor, positions, normal, slots: _LipSlots, forbidden) -> bool:
     """A strip may join the mesh only if every triangle keeps the surface's orientation, none
-    bridges the slit or repeats a live triangle's corners, and no edge ends up with more
-    than two triangles or the same direction twice."""
+    bridges the slit, is ``forbidden`` or repeats a live triangle's corners, and no edge ends
+    up with more than two triangles or the same direction twice."""
     if not strip:
         return False
     directed = set()
     for tri in strip:
-        if not _valid(tri, positions, normal) or slots.bridges(tri) or _exists(editor, tri):
+        if not _valid(tri, positions, normal) or slots.bridges(tri) or forbidden(tri) or _exists(editor, tri):
             return False
         for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
             if (a, b) in directed:
