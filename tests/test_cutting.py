@@ -320,9 +320,8 @@ def stroke(kind, model):
 @pytest.mark.parametrize("kind", [
     "between rows", "along a row", "oblique",
     pytest.param("arc", marks=pytest.mark.xfail(
-        strict=True, reason="on the arc's outer side the fill makes triangles of lip nodes only (start-R0-R1, "
-                            "start-R1-R3, R1-R2-R3): lips R0-R2 are buried and the chord R1-R3 crosses the curve "
-                            "into the slit")),
+        strict=True, reason="on the arc's outer side the first three right lips are left off the slit's border "
+                            "(the border runs from the start node straight to the fourth)")),
 ])
 def test_finished_stroke_leaves_an_open_slit(kind):
     """After end_incision: a valid mesh (checked in cut_along), one incision, no hole left,
