@@ -46,7 +46,8 @@ def _write(name: str, description: str, surface, stroke: strokes.Stroke, settle:
     duration = math.ceil((stroke.duration + settle) * 10) / 10
     text = f'''# {description}
 # Made by examples/make_curved_scenes.py (the mesh in meshes/{name}.obj, the keyframes from a
-# stroke that keeps the scalpel at 60 degrees to the skin). Table 1 material, border pinned.
+# stroke that keeps the scalpel at 60 degrees to the skin). Table 1 material, border pinned,
+# the skin on its support (physics.foundation: subcutaneous tissue, see docs/wound.md).
 name = "{name}_incision"
 duration = {duration}
 fps = 60
@@ -58,6 +59,7 @@ pinned = "border"
 
 [physics]
 cutting = true
+foundation = true
 
 [tool]
 radius = {stroke.radius}
