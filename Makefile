@@ -44,8 +44,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
 # Cut fuzz (not part of `make test`): random meshes and strokes, every invariant after every
-# cut event; report in benchmarks/results/fuzz.md (+ fuzz.csv). FUZZ_ARGS="--quick --events 300".
-FUZZ_ARGS ?= --events 3000 --seed 1
+# cut event; report in benchmarks/results/fuzz.md (+ fuzz.csv). FUZZ_ARGS="--quick --events 300" (about 10 min by default).
+FUZZ_ARGS ?= --events 10000 --seed 1
 fuzz: $(STAMP)
 	nice $(PY) benchmarks/fuzz_cut.py $(FUZZ_ARGS)
 	nice $(PY) benchmarks/fuzz_cut.py --named

@@ -1,6 +1,6 @@
 """Make the bundled curved-skin scenes from the library's own surfaces and strokes.
 
-``scenes/forearm_incision.toml`` cuts round a forearm-like cylinder (radius 3 cm); 
+``scenes/forearm_incision.toml`` cuts round a forearm-like cylinder (radius 3 cm);
 ``scenes/dome_incision.toml`` cuts across a dome (radius of curvature 4 cm). Each scene loads a
 mesh file (``scenes/meshes/*.obj``, written here with trimesh) through ``tissue.kind = "mesh"``,
 as a user's own mesh would be, and moves the scalpel through keyframes that follow the skin:

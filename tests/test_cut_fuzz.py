@@ -122,7 +122,8 @@ def test_one_incision_per_stroke(case):
 
 
 @pytest.mark.xfail(strict=False, reason="a 0.54 mm tool on a 1.8 mm dome mesh (lip offset 0.14 mm): tissue "
-                                        "nodes at the curve leave no room for the last lips, and the end's hole stays open")
+                                        "nodes at the curve leave no room for the last lips, and the end's hole "
+                                        "stays open")
 @fuzz
 def test_no_hole_open_after_the_stroke(case):
     _, result = cut(case)

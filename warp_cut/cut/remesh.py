@@ -13,10 +13,9 @@ Triangles keep the winding of the surface they replace.
 
 from __future__ import annotations
 
-from collections import defaultdict
-
 import itertools
 import math
+from collections import defaultdict
 
 import numpy as np
 
@@ -132,9 +131,7 @@ def zip_strip(border, lips, positions, normal, forbidden=None) -> list[tuple[int
             choice = "border" if d_border <= d_lips else "lips"
             first = along_border if choice == "border" else along_lips
             other = along_lips if choice == "border" else along_border
-            bad = (lambda t: len(set(t)) == 3 and (not _valid(t, positions, normal)
-                                                    or (forbidden is not None and forbidden(t))))
-            if bad(first) and not bad(other):
+            if _blocked(first, positions, normal, forbidden) and not _blocked(other, positions, normal, forbidden):
                 choice = "lips" if choice == "border" else "border"
         tri = along_border if choice == "border" else along_lips
         if len(set(tri)) == 3:
@@ -144,6 +141,11 @@ def zip_strip(border, lips, positions, normal, forbidden=None) -> list[tuple[int
         else:
             j += 1
     return tris
+
+
+def _blocked(tri, positions, normal, forbidden) -> bool:
+    """True if a (non-degenerate) strip triangle would turn over or is ``forbidden``."""
+    return len(set(tri)) == 3 and (not _valid(tri, positions, normal) or (forbidden is not None and forbidden(tri)))
 
 
 def _polygon(border, lips) -> list[int]:
@@ -496,9 +498,9 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
         if _acceptable(ears, editor, chart, _UP, slots, lips_only):
             candidates.append(ears)
     facing = [c for c in candidates if _faces_out(c, positions, slots.incision)]
-    # a triangle turned over on the skin (nodes the tool displaced) waits for the tool to move
-    # on; once the hole must be filled, it is accepted rather than leave a hole
-    candidates = facing if facing or defer_slivers else candidates
+    # a triangle turned over on the skin (nodes the tool displaced) waits while the tool cuts;
+    # once it has gone, it is accepted rather than leave a hole
+    candidates = facing if facing or slots.incision.open_end else candidates
     if not candidates:
         return None
     best = max(candidates, key=lambda c: _min_angle(c, positions))
