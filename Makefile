@@ -43,8 +43,9 @@ bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[bench]"
 	$(PY) benchmarks/run_all.py
 
-# Cut fuzz (not part of `make test`): random meshes and strokes, every invariant after every
-# cut event; report in benchmarks/results/fuzz.md (+ fuzz.csv). FUZZ_ARGS="--quick --events 300" (about 10 min by default).
+# Cut fuzz (not part of `make test`; about 10 min): random meshes and strokes, every invariant
+# after every cut event; report in benchmarks/results/fuzz.md (+ fuzz.csv), the named hard cases
+# in fuzz_named.md. A quick look: make fuzz FUZZ_ARGS="--quick --events 300".
 FUZZ_ARGS ?= --events 10000 --seed 1
 fuzz: $(STAMP)
 	nice $(PY) benchmarks/fuzz_cut.py $(FUZZ_ARGS)
