@@ -79,7 +79,7 @@ class _LastFrame:
 
 def test_final_mesh_ply_is_the_model_at_the_end_of_the_run(tmp_path):
     out = tmp_path / "run"
-    args = ["--set", "tissue.size=[0.03,0.02]", "--set", "duration=0.5"]  # the cut has begun
+    args = ["--set", "tissue.size=[0.05,0.03]", "--set", "duration=0.8"]  # the cut is 1 cm long
     assert main(["run", "--out", str(out), "--quiet", "--no-usd"] + args) == 0
     ply = read_ply(out / "final_mesh.ply")
     # the same run in this process (runs are deterministic on the CPU), kept to its end
@@ -180,3 +180,36 @@ def test_console_script_exit_code(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "warp_cut.cli", "validate", str(bad)],
                           capture_output=True, text=True)
     assert proc.returncode == 2 and "bad.toml" in proc.stderr
+
+
+def _write_obj(path, points, faces):
+    lines = [f"v {x} {y} {z}" for x, y, z in points] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    path.write_text("\n".join(lines) + "\n")
+
+
+NONMANIFOLD = (  # a fan of four triangles on a 2 mm square, and a fin on its inner edge 1-4 (three on it)
+    [(0, 0, 0), (0.002, 0, 0), (0.002, 0.002, 0), (0, 0.002, 0), (0.001, 0.001, 0), (0.0015, 0.0005, 0.001)],
+    [(0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4), (1, 4, 5)],
+)
+
+
+@pytest.mark.parametrize("cutting", [True, False])
+def test_non_manifold_mesh_is_refused_only_for_cutting(tmp_path, capsys, cutting):
+    """A mesh the cut cannot work on (an edge with three triangles) is refused when cutting is
+    on: exit 2, the file and the problem named, no traceback, nothing written. Without cutting it
+    is simulated as it is."""
+    mesh = tmp_path / "fan.obj"
+    _write_obj(mesh, *NONMANIFOLD)
+    scene = tmp_path / "fan.toml"
+    scene.write_text(f'name = "fan"\nduration = 0.01\n[tissue]\nkind = "mesh"\npath = "{mesh.name}"\n'
+                     f'pinned = "none"\n[physics]\ncutting = {str(cutting).lower()}\ngravity = [0.0, 0.0, 0.0]\n'
+                     '[tool]\nradius = 0.0005\n[[tool.keyframes]]\nt = 0.0\np0 = [0.001, 0.001, 0.01]\n'
+                     'p1 = [0.001, 0.001, 0.05]\n')
+    out = tmp_path / "out"
+    code = main(["run", str(scene), "--out", str(out), "--quiet", "--no-usd"])
+    err = capsys.readouterr().err
+    if cutting:
+        assert code == 2 and not out.exists()
+        assert "fan.obj" in err and "edge_nonmanifold" in err and "Traceback" not in err
+    else:
+        assert code == 0 and (out / "metrics.json").exists()
