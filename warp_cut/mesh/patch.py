@@ -14,36 +14,9 @@ import math
 import numpy as np
 
 from ..errors import InputError
+from .triangulate import zip_rows
 
 __all__ = ["skin_patch_mesh"]
-
-
-def _zip_rows(lower, upper, lower_x, upper_x):
-    """Triangulate the strip between two rows of nodes, always adding the shorter diagonal.
-
-    Args:
-        lower: Node indices of the lower row, sorted by x.
-        upper: Node indices of the upper row, sorted by x (the same x range).
-        lower_x: x [m] of the lower row's nodes.
-        upper_x: x [m] of the upper row's nodes.
-
-    Returns:
-        Triangles as (i, j, k) tuples, counter-clockwise seen from +Z.
-    """
-    tris = []
-    i = j = 0
-    while i < len(lower) - 1 or j < len(upper) - 1:
-        advance_lower = j == len(upper) - 1 or (
-            i < len(lower) - 1
-            and (lower_x[i + 1] - upper_x[j]) ** 2 <= (upper_x[j + 1] - lower_x[i]) ** 2
-        )
-        if advance_lower:
-            tris.append((lower[i], lower[i + 1], upper[j]))
-            i += 1
-        else:
-            tris.append((lower[i], upper[j + 1], upper[j]))
-            j += 1
-    return tris
 
 
 def skin_patch_mesh(size=(0.10, 0.06), spacing: float = 2.0e-3, origin=None):
@@ -94,7 +67,7 @@ def skin_patch_mesh(size=(0.10, 0.06), spacing: float = 2.0e-3, origin=None):
         start += len(xs)
     tris = []
     for r in range(ny):
-        tris.extend(_zip_rows(rows[r], rows[r + 1], rows_x[r], rows_x[r + 1]))
+        tris.extend(zip_rows(rows[r], rows[r + 1], rows_x[r], rows_x[r + 1]))
     pts = np.concatenate(points)
     pts[:, 0] -= width / 2.0
     pts[:, 1] -= height / 2.0

@@ -15,13 +15,22 @@ from matplotlib.tri import Triangulation
 from ..errors import InputError
 from .geometry import triangle_min_angles
 
-__all__ = ["lattice", "jitter_lattice", "disk_points", "delaunay", "trim_border_slivers",
+__all__ = ["zip_rows", "lattice", "jitter_lattice", "disk_points", "delaunay", "trim_border_slivers",
            "boundary_edges", "border_loops", "topology_problems"]
 
 
-def _zip_rows(lower, upper, lower_u, upper_u):
-    """Triangles (CCW, the lower row at smaller v) of the strip between two rows of nodes
-    sorted by u, always taking the shorter diagonal."""
+def zip_rows(lower, upper, lower_u, upper_u) -> list[tuple[int, int, int]]:
+    """Triangulate the strip between two rows of nodes, always adding the shorter diagonal.
+
+    Args:
+        lower: Node indices of the lower row (at smaller v), sorted by u.
+        upper: Node indices of the upper row, sorted by u (the same u range).
+        lower_u: u [m] of the lower row's nodes.
+        upper_u: u [m] of the upper row's nodes.
+
+    Returns:
+        Triangles as (i, j, k) tuples, counter-clockwise in the (u, v) plane.
+    """
     tris = []
     i = j = 0
     while i < len(lower) - 1 or j < len(upper) - 1:
@@ -64,9 +73,9 @@ def lattice(width_u: float, width_v: float, spacing: float, *, periodic_v: bool 
         start += len(u)
     tris = []
     for r in range(rows - 1):
-        tris += _zip_rows(index[r], index[r + 1], us[r], us[r + 1])
+        tris += zip_rows(index[r], index[r + 1], us[r], us[r + 1])
     if periodic_v:
-        tris += _zip_rows(index[-1], index[0], us[-1], us[0])
+        tris += zip_rows(index[-1], index[0], us[-1], us[0])
     uv = np.concatenate(uv) - np.array([width_u / 2.0, width_v / 2.0])
     return uv, np.asarray(tris, dtype=np.int64)
 
