@@ -29,9 +29,16 @@ KEYFRAME_STEP = 0.02
 
 
 def _keyframes(stroke: strokes.Stroke) -> str:
+    """The stroke's poses, and one 0.1 s later with the tool 1 cm further out along its axis:
+    the stroke ends with the tip just clear of the nodes, and a tool held there would keep
+    the incision open."""
     path = stroke.tool_path(KEYFRAME_STEP)
+    axis = (path.p1[-1] - path.p0[-1]) / np.linalg.norm(path.p1[-1] - path.p0[-1])
+    times = np.append(path.times, path.times[-1] + 0.1)
+    p0s = np.vstack([path.p0, path.p0[-1] + 0.01 * axis])
+    p1s = np.vstack([path.p1, path.p1[-1] + 0.01 * axis])
     rows = []
-    for t, p0, p1 in zip(path.times, path.p0, path.p1):
+    for t, p0, p1 in zip(times, p0s, p1s):
         rows.append("[[tool.keyframes]]\n"
                     f"t = {t:.6f}\n"
                     f"p0 = [{p0[0]:.9f}, {p0[1]:.9f}, {p0[2]:.9f}]\n"

@@ -461,6 +461,24 @@ class _LipSlots:
         return mapping
 
 
+def _split_at_lips(chain, slots: _LipSlots) -> list[list[int]]:
+    """A border chain cut at the live lip nodes (and the start or end node) it passes: the
+    hole touches the slit's border there, and each piece is filled against the lips between
+    its two ends (a lip inside a piece would be paired with other lips across the slit). A
+    piece that is one edge between two such nodes is the slit's border itself: dropped."""
+    lips = set(slots.theta)
+    cuts = [k for k in range(1, len(chain) - 1) if chain[k] in lips]
+    if not cuts:
+        return [chain]
+    if chain[0] == chain[-1] and chain[0] not in lips:  # closed: begin at a lip
+        body = chain[:-1]
+        chain = body[cuts[0]:] + body[:cuts[0]] + [body[cuts[0]]]
+        cuts = [k for k in range(1, len(chain) - 1) if chain[k] in lips]
+    ends = [0] + cuts + [len(chain) - 1]
+    pieces = [chain[a:b + 1] for a, b in zip(ends[:-1], ends[1:])]
+    return [p for p in pieces if len(p) > 2 or not (p[0] in lips and p[-1] in lips)]
+
+
 def _start_at_slit_start(chain, incision, slots: _LipSlots) -> list[int]:
     """A closed chain rotated to begin (and end) at the slit's start node, or the node nearest
     it (theta ~ 0); an open chain as it is."""
@@ -539,8 +557,9 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
     chains = hole_chains(editor, removed_corners, open_chains)
     slots = _LipSlots(editor, incision, positions)
     triangles, unfilled, waiting, under_tool = [], [], [], False
-    for chain in chains:
-        chain = _start_at_slit_start(chain, incision, slots)
+    pieces = [piece for chain in chains
+              for piece in _split_at_lips(_start_at_slit_start(chain, incision, slots), slots)]
+    for chain in pieces:
         notch = _notch(editor, chain, slots)
         ordered = _lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain), notch)
         if not ordered and chain[0] != chain[-1]:
