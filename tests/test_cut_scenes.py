@@ -118,14 +118,7 @@ def test_cut_events_follow_the_interval(interval):
 
 
 # ------------------------------------------------------------------ every integrator
-@pytest.mark.parametrize("integrator", [
-    "semi_implicit", "implicit_euler",
-    pytest.param("xpbd", marks=pytest.mark.xfail(
-        strict=True, reason="under XPBD the skin sags 1.4-2.1 mm under the blade, and the tissue between the "
-                            "slit's tip and the tool is not re-opened: the hole around the tool becomes an island "
-                            "(a closed border of 8 nodes in the slit) that no fill can close without bridging the "
-                            "slit, left open after the stroke (unfilled_holes 1)")),
-])
+@pytest.mark.parametrize("integrator", ["semi_implicit", "implicit_euler", "xpbd"])
 def test_every_integrator_cuts_one_open_incision(integrator):
     """A 1 cm stroke under each integrator: the run is finite, the mesh valid, one stroke is
     one incision with no hole left, it covers >= 90 % of the tool's path in the skin, and its
@@ -231,8 +224,6 @@ def test_curved_incision_follows_the_tool(curved):
     assert m["incision"]["max_deviation_3d_m"] >= m["incision"]["max_deviation_m"] - 1e-12
 
 
-@pytest.mark.xfail(strict=True, reason="one right lip (of 25) is left off the slit's border: a fill triangle with a "
-                                       "tissue node reaches between two lips there")
 def test_curved_incision_leaves_an_open_slit(curved):
     """After the stroke the slit is open along its whole length (``assert_open_slit``)."""
     _, sim, _ = curved

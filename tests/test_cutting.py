@@ -317,12 +317,7 @@ def stroke(kind, model):
     return list(arc((0.0, -0.004), 0.006, 30.0, 150.0)), 0.0008  # "arc": 12.6 mm of a 6 mm circle
 
 
-@pytest.mark.parametrize("kind", [
-    "between rows", "along a row", "oblique",
-    pytest.param("arc", marks=pytest.mark.xfail(
-        strict=True, reason="on the arc's outer side the first three right lips are left off the slit's border "
-                            "(the border runs from the start node straight to the fourth)")),
-])
+@pytest.mark.parametrize("kind", ["between rows", "along a row", "oblique", "arc"])
 def test_finished_stroke_leaves_an_open_slit(kind):
     """After end_incision: a valid mesh (checked in cut_along), one incision, no hole left,
     stations by their rules and the slit open from its start node to its end node."""
@@ -342,8 +337,7 @@ def test_finished_stroke_leaves_an_open_slit(kind):
     pytest.param("along a row", marks=pytest.mark.xfail(
         strict=True, reason="a cut along a lattice row (through its nodes) leaves a triangle of 8.4 deg "
                             "near its start")),
-    pytest.param("arc", marks=pytest.mark.xfail(
-        strict=True, reason="the 6 mm arc leaves a triangle of 8.7 deg")),
+    "arc",
 ])
 def test_finished_stroke_makes_no_sliver(kind):
     """No triangle the cut made (and left alive) has an angle below SLIVER_DEG."""
