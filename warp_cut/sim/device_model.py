@@ -1,9 +1,10 @@
 """DeviceModel: the device mirror of a TissueModel (float32 / int32 Warp arrays).
 
 Derived from the model's slot tables in one place, so no component keeps its own copy of the
-topology. Arrays are allocated at the tables' capacity; kernels run over the used slots
-(``*_count``) and skip dead ones. After an edit, ``sync`` copies only the changed slots (a
-scatter launch per column), unless a table outgrew its capacity, which reallocates.
+topology. Arrays are allocated at the tables' capacity; kernels skip dead and unused slots.
+After an edit, ``sync`` copies only the changed slots (through a numpy view of the array on the
+CPU, a scatter launch per column on a GPU), unless a table outgrew its capacity, which
+reallocates.
 """
 
 from __future__ import annotations
@@ -14,7 +15,9 @@ import warp as wp
 from ..kernels import NODE_ACTIVE, NODE_PINNED
 from ..kernels.scatter import scatter_float32, scatter_int32, scatter_vec3
 
-__all__ = ["DeviceModel"]
+__all__ = ["DeviceModel", "write_slots"]
+
+_SCATTER = {wp.vec3: scatter_vec3, wp.float32: scatter_float32, wp.int32: scatter_int32}
 
 
 def _node_flags(model, slots) -> np.ndarray:
@@ -52,6 +55,24 @@ def _to_warp(values: np.ndarray, dtype, device) -> wp.array:
         return wp.array(np.asarray(values, np.float32).reshape(-1, 3), dtype=wp.vec3, device=device)
     np_type = np.float32 if dtype is wp.float32 else np.int32
     return wp.array(np.asarray(values, np_type).ravel(), dtype=dtype, device=device)
+
+
+def write_slots(dest: wp.array, idx: np.ndarray, values: np.ndarray) -> None:
+    """dest[idx] = values for a flat vec3, float32 or int32 Warp array.
+
+    Args:
+        dest: The array written, shape (capacity,).
+        idx: Entries to write, shape (k,) int.
+        values: Their values, shape (k, 3) for vec3 arrays, else (k,).
+    """
+    if not len(idx):
+        return
+    if dest.device.is_cpu:  # host memory: a numpy view, no launch and no temporary arrays
+        dest.numpy()[idx] = values
+        return
+    src = _to_warp(values, dest.dtype, dest.device)
+    wp.launch(_SCATTER[dest.dtype], dim=len(idx), device=dest.device,
+              inputs=[dest, wp.array(np.asarray(idx, np.int32), dtype=wp.int32, device=dest.device), src])
 
 
 class DeviceModel:
@@ -118,19 +139,14 @@ class DeviceModel:
         if any(grown for _, grown in changes.values()):
             self._allocate()
             return True
-        kernels = {wp.vec3: scatter_vec3, wp.float32: scatter_float32, wp.int32: scatter_int32}
-        for name, table, values, dtype in _columns(model):
+        for name, table, values, _ in _columns(model):
             slots = changes[id(table)][0]
             if not len(slots):
                 continue
-            dest = getattr(self, name)
-            width = 2 if name.endswith("_indices") else 1
-            if width == 2:  # pairs are stored flat: slot s owns entries 2s and 2s + 1
+            if name.endswith("_indices"):  # pairs are stored flat: slot s owns entries 2s and 2s + 1
                 idx = np.stack([2 * slots, 2 * slots + 1], axis=1).ravel()
+                write_slots(getattr(self, name), idx, np.asarray(values(slots)).ravel())
             else:
-                idx = slots
-            src = _to_warp(values(slots), dtype, self.device)
-            wp.launch(kernels[dtype], dim=len(idx), device=self.device,
-                      inputs=[dest, wp.array(idx.astype(np.int32), dtype=wp.int32, device=self.device), src])
+                write_slots(getattr(self, name), slots, values(slots))
         self._counts()
         return False

@@ -20,8 +20,9 @@ The solver contract (the Simulator relies on it):
   ``prepare(state_in, state_out, h)`` records the launches ahead of the next ``step``;
 * ``step_limit(model, positions)`` (class method): the StepLimit the automatic step uses.
 
-Launch dims come from the DeviceModel's counts, read at every step; a change of a count
-records new launches.
+Recorded launches depend on the model's sizes (``_extent``: by default its used-slot counts, so
+an edit records new launches; the semi-implicit solver spans the arrays' capacity instead, so an
+edit within capacity records nothing).
 """
 
 from __future__ import annotations
@@ -63,6 +64,9 @@ class SolverBase:
         self.model = model
         self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
         self.residual_stress = bool(residual_stress)
+        self.links_expected = False
+        """Launch the residual links before the model has any (a cut will make them), where
+        launches span the arrays' capacity (the semi-implicit solver)."""
         self.collision = bool(collision)
         self.foundation_stiffness = float(model.foundation_stiffness)
         """k_f [N/m^3] of the model's support; 0: the foundation is neither launched nor compiled."""
@@ -109,9 +113,10 @@ class SolverBase:
 
     def topology_changed(self) -> None:
         """Forget recorded launches and re-derive the solver's own arrays from the model."""
-        self._sequences.clear()
         self._last_tool = None
         self._derive()
+        extent = self._extent()
+        self._sequences = {key: seq for key, seq in self._sequences.items() if key[3:] == extent}
 
     def step(self, state_in, state_out, tool: Tool | None, h: float) -> None:
         """Advance by one substep h [s]."""
@@ -134,10 +139,14 @@ class SolverBase:
         return self._sequences[self._key(state_in, state_out, h)]
 
     def _key(self, state_in, state_out, h: float) -> tuple:
-        """What a recorded sequence depends on: the state buffers, h and the model's counts."""
+        """What a recorded sequence depends on: the state buffers, h and the model's sizes."""
+        return (state_in.positions.ptr, state_out.positions.ptr, float(h)) + self._extent()
+
+    def _extent(self) -> tuple:
+        """The model sizes baked into recorded launches (dims and count arguments): here the
+        used-slot counts of nodes, springs and links and the spring arrays read."""
         m = self.model
-        return (state_in.positions.ptr, state_out.positions.ptr, float(h), m.node_count,
-                m.spring_count, m.link_count)
+        return (m.node_count, m.spring_count, m.link_count, self.spring_arrays()[0].ptr)
 
     # ------------------------------------------------------------------ helpers
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:

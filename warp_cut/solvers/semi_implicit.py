@@ -25,20 +25,33 @@ class SemiImplicitSolver(SolverBase):
     accumulate over substeps until ``clear_tool_stats``; the node pass runs the stability guard.
     """
 
+    def _extent(self) -> tuple:
+        """Launches span the arrays' capacity (the kernels skip dead and unused slots), so an
+        edit within capacity keeps the recorded launches: (node capacity, spring slots read,
+        spring arrays read, whether links are launched)."""
+        m = self.model
+        indices = self.spring_arrays()[0]
+        return (m.node_mass.shape[0], indices.shape[0] // 2, indices.ptr, self._links_on())
+
+    def _links_on(self) -> bool:
+        return self.residual_stress and (self.model.link_count > 0 or self.links_expected)
+
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
         m = self.model
         forces = state_in.forces
-        indices, rest, stiffness, count = self.spring_arrays()
-        seq.add(spring_forces, self.threads(count),
-                [state_in.positions, indices, rest, stiffness, self.chunk, count, forces])
-        if self.residual_stress and m.link_count:
-            seq.add(residual_link_forces, m.link_count,
+        indices, rest, stiffness, _ = self.spring_arrays()
+        springs = indices.shape[0] // 2
+        seq.add(spring_forces, self.threads(springs),
+                [state_in.positions, indices, rest, stiffness, self.chunk, springs, forces])
+        if self._links_on():
+            seq.add(residual_link_forces, m.link_force.shape[0],
                     [state_in.positions, m.link_indices, m.link_force, m.link_smoothing, forces])
         node = integrate_kernel(self.gravity is not None, self.collision, self.foundation)
-        seq.add(node, self.threads(m.node_count),
+        nodes = m.node_mass.shape[0]
+        seq.add(node, self.threads(nodes),
                 [state_in.positions, state_in.velocities, forces, m.node_mass, m.node_damping,
                  m.node_flags, self.gravity if self.gravity is not None else wp.vec3(0.0),
                  m.rest_positions, m.node_area, self.foundation_stiffness, self.tool_pose, h,
-                 self.chunk, m.node_count, state_out.positions, state_out.velocities,
+                 self.chunk, nodes, state_out.positions, state_out.velocities,
                  self.tool_force, self.contact_count, self.contact_position_sum]
                 + self.guard_inputs(rest=False))
