@@ -1,5 +1,7 @@
 """warp_cut/slots.py and device_model.py: in-place edits with spare capacity, mirrored slot by slot."""
 
+import copy
+
 import numpy as np
 import pytest
 from conftest import DEVICE
@@ -43,3 +45,25 @@ def test_device_mirror_follows_edits_and_growth():
     np.testing.assert_array_equal(dev.spring_indices.numpy()[: 2 * table.count],
                                   table.column("pairs").ravel())
     assert dev.spring_count == table.count
+
+
+def test_changed_rows_replicate_a_table_edit_by_edit():
+    """rows / put_rows carry every change (appends, kills, sets, growth) to a replica, and
+    changed_slots leaves the changes for take_dirty."""
+    t = SlotTable({"pairs": np.array([[0, 1], [1, 2], [2, 3]]), "w": np.array([1.0, 2.0, 3.0])}, key="pairs")
+    replica = copy.deepcopy(t)
+    t.take_dirty()
+    for edit in range(3):
+        t.kill([edit])
+        t.set("w", [2], 10.0 + edit)
+        n = t.capacity if edit == 1 else 2  # the second edit outgrows the capacity
+        t.append(pairs=np.full((n, 2), edit), w=np.full(n, float(edit)))
+        slots = t.changed_slots()
+        replica.put_rows(slots, t.rows(slots), t.count)
+        assert t.take_dirty()[0].tolist() == slots.tolist()
+        assert replica.count == t.count and replica.capacity >= t.count
+        np.testing.assert_array_equal(replica.alive, t.alive)
+        for name in ("pairs", "w"):
+            np.testing.assert_array_equal(replica.column(name), t.column(name))
+    with pytest.raises(ValueError, match="put_rows needs"):
+        replica.put_rows([0], {"w": np.zeros(1)}, replica.count)

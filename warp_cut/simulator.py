@@ -8,14 +8,14 @@ from collections.abc import Callable
 import numpy as np
 import warp as wp
 
+from .cut.background import DEFAULT_MAX_LAG, BackgroundCutter
 from .cut.cutter import CutSettings, Cutter
 from .errors import InputError, SimulationUnstable, ToolStartsInside
 from .kernels.diagnostics import displacement_limit_sq, find_runaway_nodes, kinetic_energy
-from .kernels.scatter import scatter_vec3
 from .sim.ccd import ContinuousDetector
 from .sim.collision import cylinder_contacts
 from .sim.control import Tool, ToolPath
-from .sim.device_model import DeviceModel
+from .sim.device_model import DeviceModel, write_slots
 from .sim.model import TissueModel
 from .sim.stability import StepLimit
 from .sim.state import State
@@ -49,6 +49,10 @@ class Simulator:
         device: Warp device, ``"cpu"`` or ``"cuda:0"``.
         cutting: None/False for no cutting, True or a ``CutSettings`` to cut the tissue where
             the tool goes (see ``warp_cut.cut.cutter``); the Cutter is then ``self.cutter``.
+        cut_in_background: run the cut's host work in a worker process (a
+            ``warp_cut.cut.background.BackgroundCutter`` is then ``self.cutter``): a cut event
+            no longer lands in one step, for a fixed-rate loop; call ``close()`` when done.
+            True, or the ``max_lag`` in steps an edit may take (True: ``DEFAULT_MAX_LAG``).
     """
 
     def __init__(self, model: TissueModel, dt: float | str = 1.0e-3, *,
@@ -56,7 +60,7 @@ class Simulator:
                  device: str = "cpu", substeps: int | str = "auto",
                  residual_stress: bool = True, collision: bool = True,
                  safety: float = 0.5, max_displacement: float | None = None,
-                 cutting=None):
+                 cutting=None, cut_in_background: bool | int = False):
         if integrator not in INTEGRATORS:
             raise InputError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
         if not (0 < safety <= 1):
@@ -71,6 +75,7 @@ class Simulator:
             raise InputError(f"gravity must be three finite numbers [m/s^2], got {gravity!r}")
         self.residual_stress = residual_stress
         self.collision = collision
+        self._cutting = bool(cutting)
         extent = np.ptp(model.points[model.active], axis=0) if model.active.any() else np.zeros(3)
         self.max_displacement = float(max_displacement or max(1.0, 1000.0 * np.linalg.norm(extent)))
         self._dt_request, self._substeps_request = dt, substeps
@@ -101,12 +106,21 @@ class Simulator:
         self._rebuild()
         self.post_step_hooks: list[Callable[[Simulator], None]] = []
         """Called with the simulator after every step, in order (e.g. ``Cutter.after_step``)."""
-        self.cutter: Cutter | None = None
-        """The Cutter when the simulator was made with ``cutting``, else None."""
+        self.cutter: Cutter | BackgroundCutter | None = None
+        """The Cutter (or BackgroundCutter) when the simulator was made with ``cutting``."""
         if cutting:
             settings = cutting if isinstance(cutting, CutSettings) else None
-            self.cutter = Cutter(model, settings, device)
+            if cut_in_background:
+                lag = DEFAULT_MAX_LAG if cut_in_background is True else int(cut_in_background)
+                self.cutter = BackgroundCutter(model, settings, max_lag=lag)
+            else:
+                self.cutter = Cutter(model, settings, device)
             self.post_step_hooks.append(self.cutter.after_step)
+
+    def close(self) -> None:
+        """Release what outlives a step: the background cut's worker process, if any."""
+        if isinstance(self.cutter, BackgroundCutter):
+            self.cutter.close()
 
     # --------------------------------------------------------------- set-up
     def _rebuild(self) -> None:
@@ -118,9 +132,12 @@ class Simulator:
         self._choose_steps()
 
     def _make_solver(self):
-        return INTEGRATORS[self.integrator](
+        solver = INTEGRATORS[self.integrator](
             self.device_model, gravity=self.gravity, residual_stress=self.residual_stress,
             collision=self.collision, max_displacement=self.max_displacement)
+        # a cut makes links: launch them from the start, so their first ones record nothing
+        solver.links_expected = self._cutting
+        return solver
 
     def _choose_steps(self) -> None:
         limit = self.step_limit.step
@@ -176,7 +193,9 @@ class Simulator:
         cut has been restarted)."""
         if self.cutter is None:
             return None
-        curves = [inc.curve for inc in self.cutter.incisions if inc.curve is not None]
+        incisions = (self.cutter.call(self, "incisions") if isinstance(self.cutter, BackgroundCutter)
+                     else self.cutter.incisions)
+        curves = [inc.curve for inc in incisions if inc.curve is not None]
         return curves[-1].control_points_flat() if curves else None
 
     @property
@@ -323,13 +342,10 @@ class Simulator:
                 v[: old.node_count] = old.velocities.numpy()
                 setattr(self, attr, State(x, v, device=self.device))
             reallocated = True
-        if len(new_nodes):
-            idx = wp.array(np.asarray(new_nodes, np.int32), dtype=wp.int32, device=self.device)
-            x = wp.array(np.asarray(new_positions, np.float32), dtype=wp.vec3, device=self.device)
-            zero = wp.zeros(len(new_nodes), dtype=wp.vec3, device=self.device)
-            for state in (self._state, self._next):
-                wp.launch(scatter_vec3, dim=len(new_nodes), device=self.device, inputs=[state.positions, idx, x])
-                wp.launch(scatter_vec3, dim=len(new_nodes), device=self.device, inputs=[state.velocities, idx, zero])
+        idx = np.asarray(new_nodes, np.int64)
+        for state in (self._state, self._next):
+            write_slots(state.positions, idx, np.asarray(new_positions).reshape(-1, 3))
+            write_slots(state.velocities, idx, np.zeros((len(idx), 3)))
         if reallocated:
             self.solver = self._make_solver()
         else:

@@ -251,6 +251,11 @@ class Cutter:
         # else: the tip is just above the skin (the skin moves, the tool hovers) or back over
         # the cut: wait
 
+    def catch_up(self, poses: list[Tool]) -> None:
+        """Take the tool poses of steps whose ``after_step`` this cutter did not see (a cutter
+        told only of events, ``warp_cut.cut.background``), oldest first."""
+        self._poses = list(poses)
+
     def crossing(self, sim: CutHost, tool: Tool) -> Crossing | None:
         """Where the tool's axis crosses the skin now (None: the tool is out of the skin)."""
         x = self._positions_view(sim)

@@ -149,10 +149,41 @@ class SlotTable:
         Returns:
             The unique changed slots, shape (k,) int64 sorted, and whether the capacity grew.
         """
-        dirty = np.unique(np.concatenate(self._dirty)) if self._dirty else np.zeros(0, np.int64)
+        dirty = self.changed_slots()
         grown = self.grown
         self._dirty, self.grown = [], False
         return dirty, grown
+
+    def changed_slots(self) -> np.ndarray:
+        """The unique slots changed since the last ``take_dirty``, shape (k,) int64 sorted,
+        without resetting them (``take_dirty`` still reports them)."""
+        return np.unique(np.concatenate(self._dirty)) if self._dirty else np.zeros(0, np.int64)
+
+    def rows(self, slots) -> dict[str, np.ndarray]:
+        """Copies of every column at ``slots`` (k,), and ``"alive"`` (k,) bool: what
+        ``put_rows`` writes into another table with the same columns."""
+        slots = np.asarray(slots, dtype=np.int64)
+        out = {name: buf[slots].copy() for name, buf in self._cols.items()}
+        out["alive"] = self._alive[slots].copy()
+        return out
+
+    def put_rows(self, slots, rows: dict[str, np.ndarray], count: int) -> None:
+        """Overwrite ``slots`` (k,) with ``rows`` (from ``rows`` of a table with the same
+        columns) and set the used count, growing the capacity if needed; the slots become
+        dirty. A replica table so follows its original edit by edit.
+
+        Raises:
+            ValueError: The columns differ from this table's.
+        """
+        if set(rows) != set(self._cols) | {"alive"}:
+            raise ValueError(f"put_rows needs columns {sorted(self._cols)} and 'alive', got {sorted(rows)}")
+        slots = np.asarray(slots, dtype=np.int64)
+        if count > self.capacity:
+            self._grow(count)
+        for name, values in rows.items():
+            (self._alive if name == "alive" else self._cols[name])[slots] = values
+        self.count = int(count)
+        self._dirty.append(slots)
 
     def _grow(self, needed: int) -> None:
         """Reallocate every column to at least ``needed`` slots (at least doubling)."""

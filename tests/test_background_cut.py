@@ -1,0 +1,127 @@
+"""warp_cut/cut/background.py: the cut in a worker process, its edits applied between ticks.
+
+The worker's replica and the loop's model must stay the same tissue edit by edit; the cut it
+makes must be the one the in-loop Cutter makes on the same stroke (up to the few steps an edit
+arrives late); its failures must reach the loop as errors, and closing must leave no process.
+"""
+
+import numpy as np
+import pytest
+from conftest import DEVICE
+
+from warp_cut import Simulator, TissueModel, Tool
+from warp_cut.cut.background import BackgroundCutter, CutWorkerError
+from warp_cut.cut.cutter import CutSettings
+from warp_cut.errors import InputError
+from warp_cut.verify.validity import cut_problems
+
+AXIS = np.array([-0.5, 0.0, 0.866])
+"""The scalpel leaning back 60 degrees along -x."""
+TABLES = ("node_table", "spring_table", "triangle_table", "link_table")
+
+
+def scalpel(k: int, lift_at: int | None = None, y: float = 3e-4) -> Tool:
+    """Tick k of a stroke at ``y`` [m]: 200 ticks going 6 mm in along the axis, then 2 cm/s
+    along x; from ``lift_at`` on, 2 cm above the skin."""
+    tip = (np.array([-0.012, y, 0.004]) - min(k, 200) / 200 * 0.006 * AXIS
+           + np.array([max(0, k - 200) * 2e-5, 0.0, 0.0]))
+    if lift_at is not None and k >= lift_at:
+        tip = tip + np.array([0.0, 0.0, 0.02])
+    return Tool(p0=tip, p1=tip + 0.04 * AXIS, radius=0.001)
+
+
+def cut_stroke(background: bool, ticks: int = 1300, lift_at: int = 1200):
+    """A 2 cm stroke on a 4 x 3 cm patch, then the tool lifted out; (sim, its model). In the
+    background, each edit lands two steps after its event (``max_lag`` 1): the loop runs
+    faster than real time here, and the run is the same every time."""
+    model = TissueModel.from_patch((0.04, 0.03), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(),
+                    cut_in_background=1 if background else False)
+    for k in range(ticks):
+        sim.step(tool=scalpel(k, lift_at))
+    if background:
+        sim.cutter.flush(sim)
+    return sim, model
+
+
+@pytest.fixture(scope="module")
+def background_run():
+    sim, model = cut_stroke(background=True)
+    metrics = sim.cutter.metrics(sim)
+    replica = sim.cutter.call(sim, "model")
+    yield sim, model, metrics, replica
+    sim.close()
+
+
+@pytest.fixture(scope="module")
+def loop_run():
+    sim, model = cut_stroke(background=False)
+    return sim, model, sim.cutter.metrics(sim.positions)
+
+
+def test_the_loop_model_is_the_worker_replica(background_run):
+    sim, model, _, replica = background_run
+    assert sim.cutter.edits_applied > 10
+    for name in TABLES:
+        ours, theirs = getattr(model, name), getattr(replica, name)
+        assert ours.count == theirs.count, name
+        np.testing.assert_array_equal(ours.alive, theirs.alive, err_msg=name)
+        for column in ours._cols:
+            np.testing.assert_array_equal(ours.column(column), theirs.column(column),
+                                          err_msg=f"{name}.{column}")
+    assert model.topology_version == replica.topology_version
+
+
+def test_the_background_cut_leaves_a_valid_tissue(background_run):
+    sim, _, metrics, _ = background_run
+    assert cut_problems(sim) == []
+    assert metrics["cut"]["incisions"] == 1 and metrics["cut"]["unfilled_holes"] == 0
+    assert metrics["incision"]["coverage"] >= 0.95
+
+
+def test_the_background_cut_is_the_in_loop_cut(background_run, loop_run):
+    """The same stroke cut in the loop and in the background: the same incision (its length
+    within two spacings: an edit lands a few steps after its positions were taken), the same
+    kind of wound (one incision, no hole, lips as many within 20 %)."""
+    _, _, bg, _ = background_run
+    _, _, fg = loop_run
+    assert fg["cut"]["incisions"] == 1 and fg["cut"]["unfilled_holes"] == 0
+    assert abs(bg["incision"]["length_m"] - fg["incision"]["length_m"]) <= 2 * 0.002
+    assert bg["cut"]["lip_nodes"] == pytest.approx(fg["cut"]["lip_nodes"], rel=0.2)
+
+
+def test_a_lifted_and_returned_tool_makes_two_incisions():
+    """The tool leaves the skin while an edit is in flight and comes back: the worker ends
+    the first incision before the poses of the second stroke reach it."""
+    model = TissueModel.from_patch((0.04, 0.03), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(), cut_in_background=1)
+    try:
+        for k in range(700):
+            sim.step(tool=scalpel(k, lift_at=500) if k < 600 else scalpel(k - 450, y=0.008))
+        for k in range(700, 1000):
+            sim.step(tool=scalpel(k - 450, y=0.008))
+        sim.cutter.flush(sim)
+        assert sim.cutter.call(sim, "metrics", sim.positions)["cut"]["incisions"] == 2
+        assert cut_problems(sim) == []
+    finally:
+        sim.close()
+
+
+def test_a_mesh_that_cannot_be_cut_is_refused_and_no_worker_is_left():
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], float) * 0.01
+    fan = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])  # edge 0-1 shared by three triangles
+    model = TissueModel.from_triangles(points, fan)
+    with pytest.raises(InputError, match="cannot be cut"):
+        BackgroundCutter(model)
+
+
+def test_worker_failures_reach_the_loop_and_close_stops_it():
+    model = TissueModel.from_patch((0.01, 0.01), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=True, cut_in_background=True)
+    cutter = sim.cutter
+    with pytest.raises(CutWorkerError, match="AttributeError"):
+        cutter.call(sim, "no_such_method")
+    assert cutter.call(sim, "totals")["events"] == 0  # the worker answers after a failure
+    sim.close()
+    assert not cutter._process.is_alive()
+    sim.close()  # closing twice is harmless

@@ -1,0 +1,369 @@
+"""BackgroundCutter: the cut's host work in a second process, so a 1 kHz loop keeps its ticks.
+
+A cut event (Stages 1-3, ``warp_cut.cut.cutter``) is milliseconds of Python. In the stepping
+thread it makes its tick late; a thread beside the loop does not help, as the interpreter lock
+makes every tick wait for it (``benchmarks/bench_edit_thread.py``). Here a worker process
+holds a replica of the model and runs the Cutter on it:
+
+1. at a due event the loop sends the worker the node positions and the tool poses since the
+   previous event (a copy of the positions and a pipe write) and steps on;
+2. the worker runs the event on its replica and sends back the edit: the changed rows of the
+   model's slot tables, the new nodes' positions and the explicit step's new limit;
+3. the loop applies it at the first tick after it arrives (``SlotTable.put_rows`` and
+   ``Simulator.apply_topology_edit``: a few hundred microseconds, nothing that grows with the
+   mesh or the cut).
+
+While an edit is in flight no event is sent; the next is due one interval after the previous
+one was sent, or at once when the tool has left the tissue (the end of an incision). The edit
+applies to the tissue a few milliseconds after the positions it was computed from: the nodes
+have moved by what they move in that time (the tool, at 2 cm/s, about 0.2 mm in 10 ms).
+
+The worker runs on the CPU whatever the simulation's device. Everything the Cutter reports
+(``metrics``, ``incisions``, ``gap_profile``, ...) is asked of the worker after the edits in
+flight have been applied.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+import traceback
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..sim.control import Tool
+from ..sim.device_model import DeviceModel, write_slots
+from ..sim.model import TissueModel
+from ..sim.stability import StepLimit
+from ..sim.state import State
+from .cutter import CutSettings, Cutter
+
+__all__ = ["BackgroundCutter", "CutWorkerError", "TableEdit", "ModelEdit", "DEFAULT_MAX_LAG"]
+
+DEFAULT_MAX_LAG = 100
+"""Steps a cut event may stay in flight before the loop waits for it (100 ms at 1 kHz)."""
+_TABLES = ("node_table", "spring_table", "triangle_table", "link_table")
+_START_TIMEOUT_S = 120.0
+"""How long the worker may take to start (import Warp, load the cut's kernels) [s]."""
+
+
+class CutWorkerError(RuntimeError):
+    """The cut's worker process failed (its message says where) or died."""
+
+
+@dataclass
+class TableEdit:
+    """The changed rows of one slot table: slots (k,), every column at them, the used count."""
+
+    slots: np.ndarray
+    rows: dict
+    count: int
+
+
+@dataclass
+class ModelEdit:
+    """One topology edit, as ``Simulator.apply_topology_edit`` takes it, with the table rows.
+
+    Attributes:
+        tables: Table name (``node_table``, ...) -> its TableEdit.
+        new_nodes: Slots of the nodes the edit created, shape (k,).
+        new_positions: Their positions [m], shape (k, 3).
+        explicit_limit: The semi-implicit step's limit after the edit.
+        topology_version: The model's version after the edit.
+    """
+
+    tables: dict
+    new_nodes: np.ndarray
+    new_positions: np.ndarray
+    explicit_limit: StepLimit | None
+    topology_version: int
+
+    def apply_to(self, model: TissueModel) -> None:
+        """Write the changed rows into ``model`` (a replica of the one edited)."""
+        for name, edit in self.tables.items():
+            getattr(model, name).put_rows(edit.slots, edit.rows, edit.count)
+        model.topology_version = self.topology_version
+
+
+@dataclass
+class _Event:
+    """What the worker needs of one step of the loop (the ``CutHost`` attributes)."""
+
+    time: float
+    dt: float
+    collision: bool
+    poses: np.ndarray = field(default_factory=lambda: np.zeros((0, 7)))
+    """Tool poses of the steps since the previous event, the current one last, (k, 7): p0 [m],
+    p1 [m], radius [m] (k = 0: no tool)."""
+
+    def tools(self) -> list[Tool]:
+        """The poses as Tools, oldest first."""
+        return [Tool(p0=row[0:3], p1=row[3:6], radius=row[6]) for row in self.poses]
+    tool_force: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    contact_count: float = 0.0
+    contact_centroid: np.ndarray | None = None
+    positions: np.ndarray | None = None
+    """Node positions [m] at the event, (node_count, 3) float32."""
+
+
+class _ReplicaHost:
+    """The worker's CutHost: the replica model's device mirror and a state that holds the
+    positions each event brings; it records every edit the Cutter makes instead of stepping."""
+
+    def __init__(self, model: TissueModel):
+        self.model = model
+        self.device_model = DeviceModel(model, "cpu")
+        self.state = State(model.node_table.buffer("points"), device="cpu")
+        self.edits: list[ModelEdit] = []
+        self.tool_pose: Tool | None = None
+
+    def load(self, event: _Event) -> None:
+        """Take the loop's step: its time, tool and positions."""
+        self.time, self.dt, self.collision = event.time, event.dt, event.collision
+        self.tool_pose = event.tools()[-1] if len(event.poses) else None
+        self.tool_force, self.contact_count = event.tool_force, event.contact_count
+        self.contact_centroid = event.contact_centroid
+        n = len(event.positions)
+        self.state.positions.numpy()[:n] = event.positions
+
+    def apply_topology_edit(self, new_nodes, new_positions, explicit_limit=None) -> None:
+        """Record the edit (the changed rows of every table), then mirror it here."""
+        tables = {}
+        for name in _TABLES:
+            table = getattr(self.model, name)
+            slots = table.changed_slots()
+            if len(slots):
+                tables[name] = TableEdit(slots, table.rows(slots), table.count)
+        new_nodes = np.asarray(new_nodes, np.int64)
+        new_positions = np.asarray(new_positions, np.float64).reshape(-1, 3)
+        self.edits.append(ModelEdit(tables, new_nodes, new_positions, explicit_limit,
+                                    self.model.topology_version))
+        self.device_model.sync()
+        capacity = self.model.node_table.capacity
+        if self.state.node_count < capacity:
+            x = np.zeros((capacity, 3), np.float32)
+            x[: self.state.node_count] = self.state.positions.numpy()
+            self.state = State(x, device="cpu")
+        write_slots(self.state.positions, new_nodes, new_positions)
+
+
+def _serve(conn, model: TissueModel, settings: CutSettings, cpus: set[int] | None) -> None:
+    """The worker's loop: build the Cutter, then answer events and calls until told to stop;
+    each answer carries the seconds the worker spent on it."""
+    if cpus:
+        os.sched_setaffinity(0, cpus)
+    try:
+        host = _ReplicaHost(model)
+        cutter = Cutter(model, settings, "cpu")
+    except InputError as err:
+        conn.send(("input_error", str(err)))
+        return
+    except Exception:  # noqa: BLE001 - reported to the loop, which raises it there
+        conn.send(("error", traceback.format_exc()))
+        return
+    conn.send(("ready", None))
+    while True:
+        try:
+            kind, payload = conn.recv()
+        except EOFError:  # the loop has gone
+            return
+        if kind == "stop":
+            conn.send(("stopped", None))
+            return
+        try:
+            start = time.perf_counter()
+            answer = _answer(cutter, host, kind, payload)
+            conn.send(("done", (answer, time.perf_counter() - start)))
+        except Exception:  # noqa: BLE001 - reported to the loop, which raises it there
+            conn.send(("error", traceback.format_exc()))
+
+
+def _answer(cutter: Cutter, host: _ReplicaHost, kind: str, payload):
+    """An event: run it and return the edits it made. A call: (name, args) of the Cutter."""
+    if kind == "event":
+        host.load(payload)
+        cutter.catch_up(payload.tools()[:-1])
+        host.edits = []
+        cutter.after_step(host)
+        return host.edits
+    name, args = payload
+    value = getattr(cutter, name)
+    return value(*args) if callable(value) else value
+
+
+def _worker_cpus() -> set[int] | None:
+    """The CPUs the loop's process is not pinned to, or None (not pinned, or no affinity)."""
+    if not hasattr(os, "sched_getaffinity"):
+        return None
+    others = set(range(os.cpu_count() or 1)) - os.sched_getaffinity(0)
+    return others or None
+
+
+class BackgroundCutter:
+    """A Cutter in a worker process, driven by the loop's ``after_step`` like a Cutter.
+
+    Args:
+        model: The tissue the simulation steps (edited by the worker's edits as they arrive).
+        settings: Cutting parameters (default ``CutSettings()``).
+        cpus: CPUs the worker may run on (default: when the loop's process is pinned to some
+            of the machine's CPUs, the others; else the same as the loop's).
+        max_lag: Steps an event may stay in flight; at the next step the loop waits for the
+            worker's answer. A 1 kHz loop never waits with the default (an event takes the
+            worker 10-40 ms); a loop faster than real time does, so that the cut never falls
+            behind the tool by more than this. 1: every edit lands two steps after its event
+            (reproducible run to run).
+
+    Raises:
+        InputError: The mesh cannot be cut (the worker's Cutter refused it).
+        CutWorkerError: The worker did not start.
+    """
+
+    def __init__(self, model: TissueModel, settings: CutSettings | None = None,
+                 cpus: set[int] | None = None, max_lag: int = DEFAULT_MAX_LAG):
+        if int(max_lag) < 1:
+            raise InputError(f"max_lag must be >= 1 step, got {max_lag}")
+        self.max_lag = int(max_lag)
+        self.model = model
+        self.settings = settings or CutSettings()
+        self.cpus = _worker_cpus() if cpus is None else set(cpus)
+        """CPUs the worker runs on (None: wherever the loop's process may run)."""
+        context = multiprocessing.get_context("spawn")  # no copy of Warp's state, on every OS
+        self._conn, child = context.Pipe()
+        self._process = context.Process(target=_serve, args=(child, model, self.settings, self.cpus),
+                                        name="warp_cut-cutter", daemon=True)
+        self._process.start()
+        child.close()
+        self._busy = False
+        self._in_flight = 0
+        self._received: list[ModelEdit] | None = None
+        self._poses = np.zeros((64, 7))
+        self._pose_count = 0
+        self._last_event = -np.inf
+        self._tool_in = False
+        self._end_due = False
+        self.edits_applied = 0
+        """Edits received from the worker and applied to the model."""
+        self.worker_ms: list[float] = []
+        """The worker's time for each event [ms] (its Stages 1-3 and edit recording)."""
+        self._expect("ready", timeout=_START_TIMEOUT_S)
+
+    # ----------------------------------------------------------------- the loop's side
+    def after_step(self, sim) -> None:
+        """After every step, one of: receive the worker's edit, apply the edit received at the
+        previous step, send a due event (each costs up to a few hundred microseconds: one per
+        tick keeps every tick short)."""
+        self._record_pose(sim)
+        if self._received is not None:
+            self._apply(sim)
+            return
+        if self._busy:
+            self._in_flight += 1
+            if self._in_flight >= self.max_lag or self._conn.poll():
+                self._receive()
+            return
+        due = sim.time - self._last_event >= self.settings.interval - 0.5 * sim.dt
+        if due:  # the worker's Cutter keeps the same clock
+            self._last_event = sim.time
+        if self._end_due:  # before any pose of a new stroke
+            self._end_due = False
+            self._send(sim, np.zeros((0, 7)))
+        elif due:
+            poses, self._pose_count = self._poses[: self._pose_count].copy(), 0
+            self._send(sim, poses)
+
+    def _record_pose(self, sim) -> None:
+        """Keep the step's tool pose, or note that the tool has left (the worker ends the
+        incision at its next event)."""
+        tool = sim.tool_pose if sim.collision else None
+        if tool is None or tool.radius <= 0:
+            if self._tool_in:
+                self._pose_count, self._tool_in, self._end_due = 0, False, True
+            return
+        if self._pose_count == len(self._poses):
+            self._poses = np.concatenate([self._poses, np.zeros_like(self._poses)])
+        row = self._poses[self._pose_count]
+        row[0:3], row[3:6], row[6] = tool.p0, tool.p1, tool.radius
+        self._pose_count += 1
+        self._tool_in = True
+
+    def _send(self, sim, poses: np.ndarray) -> None:
+        """Send the worker the event of this step with ``poses`` (k, 7) (the tool's since the
+        last event)."""
+        event = _Event(sim.time, sim.dt, sim.collision, poses, np.array(sim.tool_force),
+                       sim.contact_count, sim.contact_centroid,
+                       sim.state.positions.numpy()[: self.model.node_count].copy())
+        self._conn.send(("event", event))
+        self._busy, self._in_flight = True, 0
+
+    def flush(self, sim) -> None:
+        """Wait for the edit in flight, if any, and apply it."""
+        if self._busy:
+            self._receive()
+        if self._received is not None:
+            self._apply(sim)
+
+    def _receive(self) -> None:
+        edits, seconds = self._expect("done")
+        self._busy = False
+        self._received = edits
+        self.worker_ms.append(1e3 * seconds)
+
+    def _apply(self, sim) -> None:
+        edits, self._received = self._received, None
+        for edit in edits:
+            edit.apply_to(self.model)
+            sim.apply_topology_edit(edit.new_nodes, edit.new_positions, edit.explicit_limit)
+            self.edits_applied += 1
+
+    # ----------------------------------------------------------------- the Cutter's answers
+    def call(self, sim, name: str, *args):
+        """The worker Cutter's ``name(*args)`` (or attribute ``name``), after the edit in
+        flight has been applied."""
+        self.flush(sim)
+        self._conn.send(("call", (name, args)))
+        return self._expect("done")[0]
+
+    def metrics(self, sim) -> dict:
+        """The cut's entries of metrics.json (``Cutter.metrics``) at the current positions."""
+        return self.call(sim, "metrics", sim.positions)
+
+    # ----------------------------------------------------------------- life cycle
+    def close(self) -> None:
+        """Stop the worker (idempotent)."""
+        if self._process.is_alive():
+            try:
+                self._conn.send(("stop", None))
+                self._process.join(timeout=5.0)
+            except (BrokenPipeError, OSError):
+                pass
+        if self._process.is_alive():
+            self._process.terminate()
+            self._process.join(timeout=5.0)
+        self._conn.close()
+
+    def __enter__(self) -> BackgroundCutter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _expect(self, kind: str, timeout: float | None = None):
+        """The worker's next answer, which must be ``kind``; its failures raised here."""
+        if timeout is not None and not self._conn.poll(timeout):
+            self.close()
+            raise CutWorkerError(f"the cut's worker process did not answer within {timeout:g} s")
+        try:
+            got, payload = self._conn.recv()
+        except (EOFError, OSError) as err:
+            raise CutWorkerError(f"the cut's worker process died (exit code {self._process.exitcode})") from err
+        if got == "input_error":
+            self.close()
+            raise InputError(payload)
+        if got == "error":
+            raise CutWorkerError("the cut's worker process failed:\n" + payload)
+        if got != kind:
+            raise CutWorkerError(f"the cut's worker process answered {got!r}, expected {kind!r}")
+        return payload
