@@ -1,6 +1,6 @@
 """Haptic rate: every 1 ms tick on time? The README's loop, one ``sim.step(tool=...)`` per tick.
 
-    python benchmarks/bench_haptic.py [--quick] [--cpu N]
+    python benchmarks/bench_haptic.py [--quick] [--cpu N] [--repeats 3]
 
 The loop of the README (10 x 6 cm patch, Table 1 material, a 60 degree scalpel going 8 mm in
 along its axis over 0.2 s, then cutting at 2 cm/s for 2 s) on the straight incision and on the
@@ -57,28 +57,44 @@ def tools(ticks: int, curved: bool) -> list:
             for tip in (tip_at(k, curved) for k in range(ticks))]
 
 
-def tick_run(spacing: float, curved: bool, cutting: bool, ticks: int) -> dict:
-    """The README's loop for ``ticks`` ticks; one table row."""
+def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
+    """The README's loop for ``ticks`` ticks; one table row. ``cutting``: "no", "in loop"
+    (the Cutter runs in the step), or "background" (``cut_in_background``, loop paced at
+    1 kHz as a device would pace it, so the worker has the wall time a real loop gives it)."""
     model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=spacing)
     nodes = model.node_count
-    sim = wc.Simulator(model, dt=1e-3, cutting=cutting)
+    background = cutting == "background"
+    sim = wc.Simulator(model, dt=1e-3, cutting=cutting != "no", cut_in_background=background)
     poses = tools(ticks, curved)
     log = TickLog(ticks, budget=sim.dt, cpu_time=True)
-    with frozen_gc():
-        start = time.perf_counter()
-        for tool in poses:
-            log.step(sim, tool)
-        wall = time.perf_counter() - start
+    try:
+        with frozen_gc():
+            start = time.perf_counter()
+            for k, tool in enumerate(poses):
+                log.step(sim, tool)
+                while background and time.perf_counter() - start < (k + 1) * sim.dt:
+                    pass
+            wall = time.perf_counter() - start
+        if background:
+            sim.cutter.flush(sim)
+            cut = sim.cutter.metrics(sim)
+            worker = {"worker_event_p50_ms": float(np.median(sim.cutter.worker_ms)),
+                      "edit_lag_p50_steps": float(np.median(sim.cutter.lag_steps)),
+                      "edit_lag_max_steps": int(np.max(sim.cutter.lag_steps))}
+    finally:
+        sim.close()
     t, cpu, jump = log.tick_metrics(), log.tick_metrics(cpu=True), log.force_jump_metrics()
     return {"path": "curved" if curved else "straight", "spacing_mm": spacing * 1e3,
             "nodes": nodes, "nodes_end": model.active_node_count, "substeps": sim.substeps,
-            "cutting": "yes" if cutting else "no", "ticks": t["ticks"], "tick_first_ms": t["first_ms"],
+            "cutting": cutting, "ticks": t["ticks"], "tick_first_ms": t["first_ms"],
             "tick_p50_ms": t["p50"], "tick_p99_ms": t["p99"], "tick_max_ms": t["max"],
             "ticks_over_1ms": t["over_budget"], "cpu_p99_ms": cpu["p99"], "cpu_max_ms": cpu["max"],
             "cpu_over_1ms": cpu["over_budget"], "realtime_factor": ticks * sim.dt / wall,
             "force_jump_max_n": jump["max"], "force_jump_p99_n": jump["p99"],
             "force_jump_after_cut_n": jump["max_after_cut"] if jump["max_after_cut"] is not None else "",
-            "cut_ticks": jump["cut_ticks"]}
+            "cut_ticks": jump["cut_ticks"],
+            **cut_quality(cut if background else sim.cutter.metrics(sim.positions) if cutting != "no" else None),
+            **(worker if background else dict.fromkeys(WORKER_COLUMNS, ""))}
 
 
 def _timed(fn, *args) -> tuple[float, float]:
@@ -146,26 +162,53 @@ def pinned_to(cpu: int | None):
         os.sched_setaffinity(0, before)
 
 
+def cut_quality(metrics: dict | None) -> dict:
+    """Cut events, incisions, holes left open and coverage from the cut's metrics."""
+    if metrics is None:
+        return {"cut_events": 0, "incisions": "", "unfilled_holes": "", "coverage": ""}
+    return {"cut_events": metrics["cut"]["events"], "incisions": metrics["cut"]["incisions"],
+            "unfilled_holes": metrics["cut"]["unfilled_holes"], "coverage": metrics["incision"]["coverage"]}
+
+
+WORKER_COLUMNS = ["worker_event_p50_ms", "edit_lag_p50_steps", "edit_lag_max_steps"]
+"""Background rows: the worker's time per event and the steps from an event to its edit."""
 TICK_COLUMNS = ["path", "spacing_mm", "nodes", "nodes_end", "cutting", "substeps", "tick_first_ms",
                 "tick_p50_ms", "tick_p99_ms", "tick_max_ms", "ticks_over_1ms", "cpu_p99_ms", "cpu_max_ms",
                 "cpu_over_1ms", "realtime_factor", "force_jump_max_n", "force_jump_p99_n",
-                "force_jump_after_cut_n", "cut_ticks"]
+                "force_jump_after_cut_n", "cut_ticks", "cut_events", "incisions", "unfilled_holes", "coverage",
+                *WORKER_COLUMNS,
+                "tick_p99_range_ms", "repeats"]
 
 
-def run(quick: bool = False, cpu: int | None = None):
+def run(quick: bool = False, cpu: int | None = None, repeats: int = 3):
     with pinned_to(cpu) as pinned:
-        return _run(quick, pinned)
+        return _run(quick, pinned, 1 if quick else repeats)
 
 
-def _run(quick: bool, pinned: int | None):
+def median_row(runs: list[dict]) -> dict:
+    """The median of each numeric column over repeated runs of one configuration, and the
+    range of the tick p99 (`tick_p99_range_ms`)."""
+    row = dict(runs[0])
+    for key, value in row.items():
+        values = [r[key] for r in runs]
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and all(
+                isinstance(v, (int, float)) for v in values):
+            row[key] = float(np.median(values))
+    p99 = [r["tick_p99_ms"] for r in runs]
+    row["tick_p99_range_ms"] = f"{min(p99):.3g}-{max(p99):.3g}"
+    row["repeats"] = len(runs)
+    return row
+
+
+def _run(quick: bool, pinned: int | None, repeats: int):
     load_before = os.getloadavg()
     spacings = (0.002,) if quick else (0.002, 0.001)
     ticks = 600 if quick else 2200
     rows = []
     for spacing in spacings:
         for curved in (False, True):
-            for cutting in (False, True):
-                row = tick_run(spacing, curved, cutting, ticks)
+            for cutting in ("no", "in loop", "background"):
+                row = median_row([tick_run(spacing, curved, cutting, ticks) for _ in range(repeats)])
                 rows.append(row)
                 print(f"  {row['path']} {row['spacing_mm']:g} mm cutting={row['cutting']}: tick p50 "
                       f"{row['tick_p50_ms']:.3f} p99 {row['tick_p99_ms']:.2f} max {row['tick_max_ms']:.1f} ms, "
@@ -190,13 +233,18 @@ def _report(rows, overhead, pinned, load_before, load_after) -> str:
             f"{', '.join(f'{v:.2f}' for v in load_after)} after: a load above 1 per core means "
             "other processes shared the CPU, which shows as wall time above CPU time.")
     return "\n\n".join([
+        "Medians over `repeats` runs of each row (`tick_p99_range_ms`: the p99's range). "
         "One `sim.step(tool=wc.Tool(...))` per 1 ms tick, timed around the call (wall time, and the "
         "thread's CPU time `cpu_*`); budget 1 ms. Percentiles, max and counts over the ticks after "
         "the first (`tick_first_ms`: it loads the kernels and records the launches). 200 ticks "
         "going 8 mm in, then 2 cm/s along x (straight, or on y = 8 mm sin(pi x / 2 cm)); "
         "collector frozen after set-up. "
         "`force_jump_*`: tick-to-tick change of the tool force [N]; `_after_cut`: into the tick "
-        "that follows a topology edit.", load,
+        "that follows a topology edit. `cutting`: no; in loop (the cut event runs inside the "
+        "step of its tick); background (`Simulator(cut_in_background=True)`: a worker process "
+        "runs the event, the loop only sends positions and applies the edit; the loop is paced "
+        "at 1 kHz, so `realtime_factor` is at most 1; `worker_event_p50_ms`: the worker's time "
+        "per event; `edit_lag_*_steps`: steps from the event to its edit's application).", load,
         markdown_table(rows, TICK_COLUMNS),
         "## Per-call overhead, no cutting\n\nSingle-step calls with a new Tool each against one "
         "`step(n, tool=callable)` call handing out the same Tools (two simulators in lockstep, "
@@ -210,5 +258,8 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 mm only, shorter loops")
     parser.add_argument("--cpu", type=int, default=None, help="CPU to pin to (default: the last allowed)")
+    parser.add_argument("--repeats", type=int, default=3, help="runs per row; the table gives medians")
     args = parser.parse_args()
-    run(quick=args.quick, cpu=args.cpu)
+    if args.repeats < 1:
+        parser.error(f"--repeats must be >= 1, got {args.repeats}")
+    run(quick=args.quick, cpu=args.cpu, repeats=args.repeats)

@@ -1,6 +1,7 @@
 """A fixed-rate 1 kHz haptic loop on warp_cut: read the device pose, step once, send the force.
 
-    python examples/haptic_loop.py [--ticks N] [--trace FILE] [--no-cut] [--write-trace FILE]
+    python examples/haptic_loop.py [--ticks N] [--trace FILE] [--no-cut | --cut-in-loop]
+                                   [--write-trace FILE]
 
 A haptic device reports its stylus pose every millisecond and wants a force back before the
 next tick. This loop stands in for the device with a trace of poses: a CSV file recorded from
@@ -12,7 +13,9 @@ skin along the blade's axis, then 2 cm/s along x). Each tick it
 3. takes ``sim.tool_force``, the tissue's reaction on the tool: what it would send,
 4. sleeps, then spins, until the tick's deadline.
 
-A tick that ends after its deadline is a missed deadline (the device would have held the last
+The cut runs in a worker process (``Simulator(cut_in_background=True)``): a cut event's host
+work (milliseconds) would otherwise land in one tick; ``--cut-in-loop`` runs it in the step, to
+compare. A tick that ends after its deadline is a missed deadline (the device would have held the last
 force): it is printed with its duration and force, and the schedule moves on to the next tick
 boundary. The summary gives the tick percentiles and the largest tick-to-tick force change.
 
@@ -174,6 +177,8 @@ def parse_args(argv=None):
                         help="timed ticks to run (default: the whole trace; the scripted one has 2200)")
     parser.add_argument("--trace", type=Path, default=None, help="trace CSV (default: the scripted README cut)")
     parser.add_argument("--no-cut", action="store_true", help="touch and press without cutting")
+    parser.add_argument("--cut-in-loop", action="store_true",
+                        help="run each cut event inside the step of its tick (default: in a worker process)")
     parser.add_argument("--write-trace", type=Path, default=None,
                         help="write the scripted trace to this CSV and exit")
     parser.add_argument("--print-every", type=int, default=250, help="print the force every N ticks (0: never)")
@@ -182,6 +187,8 @@ def parse_args(argv=None):
     args = parser.parse_args(argv)
     if args.ticks is not None and args.ticks < 1:
         parser.error(f"--ticks must be >= 1, got {args.ticks}")
+    if args.no_cut and args.cut_in_loop:
+        parser.error("--no-cut and --cut-in-loop exclude each other")
     if not 0.0005 <= args.spacing <= 0.01:
         parser.error(f"--spacing must be in [0.0005, 0.01] m, got {args.spacing}")
     return args
@@ -198,17 +205,31 @@ def main(argv=None) -> int:
         trace = read_trace(args.trace) if args.trace is not None else scripted_trace((args.ticks or 2199) + 1)
         trace = trace[: args.ticks + 1] if args.ticks else trace
         model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=args.spacing)
-        sim = wc.Simulator(model, dt=PERIOD, cutting=not args.no_cut)
+        sim = wc.Simulator(model, dt=PERIOD, cutting=not args.no_cut,
+                           cut_in_background=not (args.no_cut or args.cut_in_loop))
+    except (ValueError, wc.InputError) as error:  # a bad trace
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    try:
+        return run_ticks(sim, trace, args)
+    finally:
+        sim.close()  # stops the cut's worker process
+
+
+def run_ticks(sim: wc.Simulator, trace: np.ndarray, args) -> int:
+    """The untimed first tick, then the loop and its summary; exit code."""
+    try:
         sim.step(tool=tool_from_pose(trace[0]))  # compile and record before the clock starts
-    except (ValueError, wc.InputError) as error:  # a bad trace, or one starting inside the skin
+    except wc.InputError as error:  # a trace starting inside the skin
         print(f"error: {error}", file=sys.stderr)
         return 2
     # A full garbage collection walks every object and takes tens of ms: collect now and
     # keep the set-up's objects out of later collections.
     gc.collect()
     gc.freeze()
-    print(f"{model.node_count} nodes, {sim.substeps} substep(s) per 1 ms tick, "
-          f"cutting {'off' if args.no_cut else 'on'}: one untimed tick, then {len(trace) - 1} at 1 kHz")
+    where = "off" if args.no_cut else ("in the loop" if args.cut_in_loop else "in a worker process")
+    print(f"{sim.model.node_count} nodes, {sim.substeps} substep(s) per 1 ms tick, "
+          f"cutting {where}: one untimed tick, then {len(trace) - 1} at 1 kHz")
     run = haptic_loop(sim, trace[1:], args.print_every, args.miss_lines)
     print(summary(sim, run))
     return 0

@@ -62,6 +62,7 @@ def loop_run():
 def test_the_loop_model_is_the_worker_replica(background_run):
     sim, model, _, replica = background_run
     assert sim.cutter.edits_applied > 10
+    assert set(sim.cutter.lag_steps) == {2}  # max_lag 1: received the step after, applied the next
     for name in TABLES:
         ours, theirs = getattr(model, name), getattr(replica, name)
         assert ours.count == theirs.count, name

@@ -28,6 +28,9 @@ def test_runs_a_few_hundred_ticks_as_a_script():
     out = done.stdout
     assert "summary: 300 ticks" in out and "missed deadlines" in out and "step per tick: p50" in out
     assert "tick 100: t = 0.102 s, force" in out  # one untimed tick first, then 0, 1, ...
+    assert "cutting in a worker process" in out
+    edits = [line for line in out.splitlines() if "topology edits" in line]
+    assert edits and int(edits[0].split("cut: ")[1].split()[0]) > 0  # the worker's edits arrived
 
 
 def test_no_cut_and_a_written_trace_give_the_same_forces(example, tmp_path, capsys):

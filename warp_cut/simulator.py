@@ -52,7 +52,8 @@ class Simulator:
         cut_in_background: run the cut's host work in a worker process (a
             ``warp_cut.cut.background.BackgroundCutter`` is then ``self.cutter``): a cut event
             no longer lands in one step, for a fixed-rate loop; call ``close()`` when done.
-            True, or the ``max_lag`` in steps an edit may take (True: ``DEFAULT_MAX_LAG``).
+            True (never wait for the worker), or the ``max_lag`` in steps an edit may take
+            before the loop waits for it.
     """
 
     def __init__(self, model: TissueModel, dt: float | str = 1.0e-3, *,

@@ -5,8 +5,8 @@ thread it makes its tick late; a thread beside the loop does not help, as the in
 makes every tick wait for it (``benchmarks/bench_edit_thread.py``). Here a worker process
 holds a replica of the model and runs the Cutter on it:
 
-1. at a due event the loop sends the worker the node positions and the tool poses since the
-   previous event (a copy of the positions and a pipe write) and steps on;
+1. at a due event the loop copies the node positions into memory shared with the worker and
+   sends it the tool poses since the previous event (a small pipe write), and steps on;
 2. the worker runs the event on its replica and sends back the edit: the changed rows of the
    model's slot tables, the new nodes' positions and the explicit step's new limit;
 3. the loop applies it at the first tick after it arrives (``SlotTable.put_rows`` and
@@ -30,6 +30,7 @@ import os
 import time
 import traceback
 from dataclasses import dataclass, field
+from multiprocessing import shared_memory
 
 import numpy as np
 
@@ -43,8 +44,9 @@ from .cutter import CutSettings, Cutter
 
 __all__ = ["BackgroundCutter", "CutWorkerError", "TableEdit", "ModelEdit", "DEFAULT_MAX_LAG"]
 
-DEFAULT_MAX_LAG = 100
-"""Steps a cut event may stay in flight before the loop waits for it (100 ms at 1 kHz)."""
+DEFAULT_MAX_LAG = None
+"""Steps a cut event may stay in flight before the loop waits for it: None, never (a haptic
+loop would rather cut late than answer late)."""
 _TABLES = ("node_table", "spring_table", "triangle_table", "link_table")
 _START_TIMEOUT_S = 120.0
 """How long the worker may take to start (import Warp, load the cut's kernels) [s]."""
@@ -105,8 +107,33 @@ class _Event:
     tool_force: np.ndarray = field(default_factory=lambda: np.zeros(3))
     contact_count: float = 0.0
     contact_centroid: np.ndarray | None = None
-    positions: np.ndarray | None = None
-    """Node positions [m] at the event, (node_count, 3) float32."""
+    node_count: int = 0
+    """Node slots whose positions [m] at the event are in the shared buffer."""
+    buffer: str = ""
+    """Name of the shared buffer of positions, (capacity, 3) float32."""
+    capacity: int = 0
+
+
+class _SharedPositions:
+    """Node positions in shared memory, (capacity, 3) float32: the loop writes them at an
+    event, the worker reads them (the loop writes only while the worker is idle)."""
+
+    def __init__(self, capacity: int, name: str | None = None):
+        self.capacity = int(capacity)
+        self.memory = shared_memory.SharedMemory(name=name, create=name is None,
+                                                 size=max(1, self.capacity) * 12)
+        self.array = np.ndarray((self.capacity, 3), np.float32, buffer=self.memory.buf)
+
+    @property
+    def name(self) -> str:
+        return self.memory.name
+
+    def release(self, unlink: bool) -> None:
+        """Unmap (and, by its creator, remove) the buffer."""
+        del self.array
+        self.memory.close()
+        if unlink:
+            self.memory.unlink()
 
 
 class _ReplicaHost:
@@ -119,6 +146,7 @@ class _ReplicaHost:
         self.state = State(model.node_table.buffer("points"), device="cpu")
         self.edits: list[ModelEdit] = []
         self.tool_pose: Tool | None = None
+        self.shared: _SharedPositions | None = None
 
     def load(self, event: _Event) -> None:
         """Take the loop's step: its time, tool and positions."""
@@ -126,8 +154,12 @@ class _ReplicaHost:
         self.tool_pose = event.tools()[-1] if len(event.poses) else None
         self.tool_force, self.contact_count = event.tool_force, event.contact_count
         self.contact_centroid = event.contact_centroid
-        n = len(event.positions)
-        self.state.positions.numpy()[:n] = event.positions
+        if self.shared is None or self.shared.name != event.buffer:
+            if self.shared is not None:
+                self.shared.release(unlink=False)
+            self.shared = _SharedPositions(event.capacity, event.buffer)
+        n = event.node_count
+        self.state.positions.numpy()[:n] = self.shared.array[:n]
 
     def apply_topology_edit(self, new_nodes, new_positions, explicit_limit=None) -> None:
         """Record the edit (the changed rows of every table), then mirror it here."""
@@ -171,6 +203,8 @@ def _serve(conn, model: TissueModel, settings: CutSettings, cpus: set[int] | Non
         except EOFError:  # the loop has gone
             return
         if kind == "stop":
+            if host.shared is not None:
+                host.shared.release(unlink=False)
             conn.send(("stopped", None))
             return
         try:
@@ -211,10 +245,10 @@ class BackgroundCutter:
         cpus: CPUs the worker may run on (default: when the loop's process is pinned to some
             of the machine's CPUs, the others; else the same as the loop's).
         max_lag: Steps an event may stay in flight; at the next step the loop waits for the
-            worker's answer. A 1 kHz loop never waits with the default (an event takes the
-            worker 10-40 ms); a loop faster than real time does, so that the cut never falls
-            behind the tool by more than this. 1: every edit lands two steps after its event
-            (reproducible run to run).
+            worker's answer. None (default): never wait, the edit lands when it is ready (an
+            event takes the worker 10-25 ms, more where holes are re-tried). A loop faster than
+            real time may set it, so that the cut does not fall behind the tool by more than
+            this; 1: every edit lands two steps after its event (reproducible run to run).
 
     Raises:
         InputError: The mesh cannot be cut (the worker's Cutter refused it).
@@ -222,10 +256,10 @@ class BackgroundCutter:
     """
 
     def __init__(self, model: TissueModel, settings: CutSettings | None = None,
-                 cpus: set[int] | None = None, max_lag: int = DEFAULT_MAX_LAG):
-        if int(max_lag) < 1:
-            raise InputError(f"max_lag must be >= 1 step, got {max_lag}")
-        self.max_lag = int(max_lag)
+                 cpus: set[int] | None = None, max_lag: int | None = DEFAULT_MAX_LAG):
+        if max_lag is not None and int(max_lag) < 1:
+            raise InputError(f"max_lag must be >= 1 step or None, got {max_lag}")
+        self.max_lag = None if max_lag is None else int(max_lag)
         self.model = model
         self.settings = settings or CutSettings()
         self.cpus = _worker_cpus() if cpus is None else set(cpus)
@@ -237,6 +271,7 @@ class BackgroundCutter:
         self._process.start()
         child.close()
         self._busy = False
+        self._shared: _SharedPositions | None = None
         self._in_flight = 0
         self._received: list[ModelEdit] | None = None
         self._poses = np.zeros((64, 7))
@@ -248,6 +283,8 @@ class BackgroundCutter:
         """Edits received from the worker and applied to the model."""
         self.worker_ms: list[float] = []
         """The worker's time for each event [ms] (its Stages 1-3 and edit recording)."""
+        self.lag_steps: list[int] = []
+        """For each event, the steps from the one that sent it to the one that applied its edit."""
         self._expect("ready", timeout=_START_TIMEOUT_S)
 
     # ----------------------------------------------------------------- the loop's side
@@ -261,7 +298,8 @@ class BackgroundCutter:
             return
         if self._busy:
             self._in_flight += 1
-            if self._in_flight >= self.max_lag or self._conn.poll():
+            late = self.max_lag is not None and self._in_flight >= self.max_lag
+            if late or self._conn.poll():
                 self._receive()
             return
         due = sim.time - self._last_event >= self.settings.interval - 0.5 * sim.dt
@@ -292,9 +330,15 @@ class BackgroundCutter:
     def _send(self, sim, poses: np.ndarray) -> None:
         """Send the worker the event of this step with ``poses`` (k, 7) (the tool's since the
         last event)."""
+        n = self.model.node_count
+        if self._shared is None or self._shared.capacity < n:
+            if self._shared is not None:  # the worker is idle: it has read the old one
+                self._shared.release(unlink=True)
+            self._shared = _SharedPositions(self.model.node_table.capacity)
+        self._shared.array[:n] = sim.state.positions.numpy()[:n]
         event = _Event(sim.time, sim.dt, sim.collision, poses, np.array(sim.tool_force),
-                       sim.contact_count, sim.contact_centroid,
-                       sim.state.positions.numpy()[: self.model.node_count].copy())
+                       sim.contact_count, sim.contact_centroid, n, self._shared.name,
+                       self._shared.capacity)
         self._conn.send(("event", event))
         self._busy, self._in_flight = True, 0
 
@@ -313,6 +357,7 @@ class BackgroundCutter:
 
     def _apply(self, sim) -> None:
         edits, self._received = self._received, None
+        self.lag_steps.append(self._in_flight + 1)
         for edit in edits:
             edit.apply_to(self.model)
             sim.apply_topology_edit(edit.new_nodes, edit.new_positions, edit.explicit_limit)
@@ -343,6 +388,9 @@ class BackgroundCutter:
             self._process.terminate()
             self._process.join(timeout=5.0)
         self._conn.close()
+        if self._shared is not None:
+            self._shared.release(unlink=True)
+            self._shared = None
 
     def __enter__(self) -> BackgroundCutter:
         return self

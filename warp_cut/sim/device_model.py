@@ -57,18 +57,19 @@ def _to_warp(values: np.ndarray, dtype, device) -> wp.array:
     return wp.array(np.asarray(values, np_type).ravel(), dtype=dtype, device=device)
 
 
-def write_slots(dest: wp.array, idx: np.ndarray, values: np.ndarray) -> None:
+def write_slots(dest: wp.array, idx: np.ndarray, values: np.ndarray, view: np.ndarray | None = None) -> None:
     """dest[idx] = values for a flat vec3, float32 or int32 Warp array.
 
     Args:
         dest: The array written, shape (capacity,).
         idx: Entries to write, shape (k,) int.
         values: Their values, shape (k, 3) for vec3 arrays, else (k,).
+        view: ``dest.numpy()`` kept by the caller (CPU arrays), to skip making it again.
     """
     if not len(idx):
         return
     if dest.device.is_cpu:  # host memory: a numpy view, no launch and no temporary arrays
-        dest.numpy()[idx] = values
+        (dest.numpy() if view is None else view)[idx] = values
         return
     src = _to_warp(values, dest.dtype, dest.device)
     wp.launch(_SCATTER[dest.dtype], dim=len(idx), device=dest.device,
@@ -115,9 +116,13 @@ class DeviceModel:
     def _allocate(self) -> None:
         """Upload every column at its table's capacity and forget the tables' changes."""
         model = self.model
+        model.triangle_table.take_dirty()  # not mirrored: its changes are only forgotten
         for name, table, values, dtype in _columns(model):
             table.take_dirty()
             setattr(self, name, _to_warp(values(np.arange(table.capacity)), dtype, self.device))
+        # host views of the CPU arrays, for writing changed slots without a launch
+        self._views = ({name: getattr(self, name).numpy() for name, _, _, _ in _columns(model)}
+                       if wp.get_device(self.device).is_cpu else {})
         self._counts()
 
     def _counts(self) -> None:
@@ -136,6 +141,7 @@ class DeviceModel:
         model = self.model
         tables = {id(t): t for _, t, _, _ in _columns(model)}
         changes = {key: t.take_dirty() for key, t in tables.items()}
+        model.triangle_table.take_dirty()  # not mirrored: its changes are only forgotten
         if any(grown for _, grown in changes.values()):
             self._allocate()
             return True
@@ -145,8 +151,8 @@ class DeviceModel:
                 continue
             if name.endswith("_indices"):  # pairs are stored flat: slot s owns entries 2s and 2s + 1
                 idx = np.stack([2 * slots, 2 * slots + 1], axis=1).ravel()
-                write_slots(getattr(self, name), idx, np.asarray(values(slots)).ravel())
+                write_slots(getattr(self, name), idx, np.asarray(values(slots)).ravel(), self._views.get(name))
             else:
-                write_slots(getattr(self, name), slots, values(slots))
+                write_slots(getattr(self, name), slots, values(slots), self._views.get(name))
         self._counts()
         return False
