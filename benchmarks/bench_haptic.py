@@ -64,7 +64,9 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
     model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=spacing)
     nodes = model.node_count
     background = cutting == "background"
+    made = time.perf_counter()
     sim = wc.Simulator(model, dt=1e-3, cutting=cutting != "no", cut_in_background=background)
+    setup_s = time.perf_counter() - made  # with a background cut, the worker's start
     poses = tools(ticks, curved)
     log = TickLog(ticks, budget=sim.dt, cpu_time=True)
     try:
@@ -80,13 +82,15 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
             cut = sim.cutter.metrics(sim)
             worker = {"worker_event_p50_ms": float(np.median(sim.cutter.worker_ms)),
                       "edit_lag_p50_steps": float(np.median(sim.cutter.lag_steps)),
-                      "edit_lag_max_steps": int(np.max(sim.cutter.lag_steps))}
+                      "edit_lag_max_steps": int(np.max(sim.cutter.lag_steps)),
+                      **{f"loop_{part}_p99_ms": float(np.percentile(ms, 99))
+                         for part, ms in sim.cutter.loop_ms.items()}}
     finally:
         sim.close()
     t, cpu, jump = log.tick_metrics(), log.tick_metrics(cpu=True), log.force_jump_metrics()
     return {"path": "curved" if curved else "straight", "spacing_mm": spacing * 1e3,
             "nodes": nodes, "nodes_end": model.active_node_count, "substeps": sim.substeps,
-            "cutting": cutting, "ticks": t["ticks"], "tick_first_ms": t["first_ms"],
+            "cutting": cutting, "setup_s": setup_s, "ticks": t["ticks"], "tick_first_ms": t["first_ms"],
             "tick_p50_ms": t["p50"], "tick_p99_ms": t["p99"], "tick_max_ms": t["max"],
             "ticks_over_1ms": t["over_budget"], "cpu_p99_ms": cpu["p99"], "cpu_max_ms": cpu["max"],
             "cpu_over_1ms": cpu["over_budget"], "realtime_factor": ticks * sim.dt / wall,
@@ -170,9 +174,11 @@ def cut_quality(metrics: dict | None) -> dict:
             "unfilled_holes": metrics["cut"]["unfilled_holes"], "coverage": metrics["incision"]["coverage"]}
 
 
-WORKER_COLUMNS = ["worker_event_p50_ms", "edit_lag_p50_steps", "edit_lag_max_steps"]
-"""Background rows: the worker's time per event and the steps from an event to its edit."""
-TICK_COLUMNS = ["path", "spacing_mm", "nodes", "nodes_end", "cutting", "substeps", "tick_first_ms",
+WORKER_COLUMNS = ["worker_event_p50_ms", "edit_lag_p50_steps", "edit_lag_max_steps",
+                  "loop_send_p99_ms", "loop_receive_p99_ms", "loop_apply_p99_ms"]
+"""Background rows: the worker's time per event, the steps from an event to its edit, and
+the loop's share of an event (send, receive, apply: one step each)."""
+TICK_COLUMNS = ["path", "spacing_mm", "nodes", "nodes_end", "cutting", "setup_s", "substeps", "tick_first_ms",
                 "tick_p50_ms", "tick_p99_ms", "tick_max_ms", "ticks_over_1ms", "cpu_p99_ms", "cpu_max_ms",
                 "cpu_over_1ms", "realtime_factor", "force_jump_max_n", "force_jump_p99_n",
                 "force_jump_after_cut_n", "cut_ticks", "cut_events", "incisions", "unfilled_holes", "coverage",
@@ -238,13 +244,16 @@ def _report(rows, overhead, pinned, load_before, load_after) -> str:
         "thread's CPU time `cpu_*`); budget 1 ms. Percentiles, max and counts over the ticks after "
         "the first (`tick_first_ms`: it loads the kernels and records the launches). 200 ticks "
         "going 8 mm in, then 2 cm/s along x (straight, or on y = 8 mm sin(pi x / 2 cm)); "
-        "collector frozen after set-up. "
+        "collector frozen after set-up (`setup_s`: making the Simulator, with a background cut "
+        "the worker's start). "
         "`force_jump_*`: tick-to-tick change of the tool force [N]; `_after_cut`: into the tick "
         "that follows a topology edit. `cutting`: no; in loop (the cut event runs inside the "
         "step of its tick); background (`Simulator(cut_in_background=True)`: a worker process "
         "runs the event, the loop only sends positions and applies the edit; the loop is paced "
         "at 1 kHz, so `realtime_factor` is at most 1; `worker_event_p50_ms`: the worker's time "
-        "per event; `edit_lag_*_steps`: steps from the event to its edit's application).", load,
+        "per event; `edit_lag_*_steps`: steps from the event to its edit's application; `loop_*_p99_ms`: "
+        "the loop's share of an event, sending it, receiving and applying its edit, each in a "
+        "tick of its own).", load,
         markdown_table(rows, TICK_COLUMNS),
         "## Per-call overhead, no cutting\n\nSingle-step calls with a new Tool each against one "
         "`step(n, tool=callable)` call handing out the same Tools (two simulators in lockstep, "

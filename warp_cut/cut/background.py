@@ -285,6 +285,9 @@ class BackgroundCutter:
         """The worker's time for each event [ms] (its Stages 1-3 and edit recording)."""
         self.lag_steps: list[int] = []
         """For each event, the steps from the one that sent it to the one that applied its edit."""
+        self.loop_ms: dict[str, list[float]] = {"send": [], "receive": [], "apply": []}
+        """The loop's share of each event [ms]: sending it, receiving its edit, applying it
+        (each in a step of its own)."""
         self._expect("ready", timeout=_START_TIMEOUT_S)
 
     # ----------------------------------------------------------------- the loop's side
@@ -293,14 +296,17 @@ class BackgroundCutter:
         previous step, send a due event (each costs up to a few hundred microseconds: one per
         tick keeps every tick short)."""
         self._record_pose(sim)
+        start = time.perf_counter()
         if self._received is not None:
             self._apply(sim)
+            self.loop_ms["apply"].append(1e3 * (time.perf_counter() - start))
             return
         if self._busy:
             self._in_flight += 1
             late = self.max_lag is not None and self._in_flight >= self.max_lag
             if late or self._conn.poll():
                 self._receive()
+                self.loop_ms["receive"].append(1e3 * (time.perf_counter() - start))
             return
         due = sim.time - self._last_event >= self.settings.interval - 0.5 * sim.dt
         if due:  # the worker's Cutter keeps the same clock
@@ -330,6 +336,7 @@ class BackgroundCutter:
     def _send(self, sim, poses: np.ndarray) -> None:
         """Send the worker the event of this step with ``poses`` (k, 7) (the tool's since the
         last event)."""
+        start = time.perf_counter()
         n = self.model.node_count
         if self._shared is None or self._shared.capacity < n:
             if self._shared is not None:  # the worker is idle: it has read the old one
@@ -341,6 +348,7 @@ class BackgroundCutter:
                        self._shared.capacity)
         self._conn.send(("event", event))
         self._busy, self._in_flight = True, 0
+        self.loop_ms["send"].append(1e3 * (time.perf_counter() - start))
 
     def flush(self, sim) -> None:
         """Wait for the edit in flight, if any, and apply it."""
