@@ -95,8 +95,7 @@ def test_a_lifted_and_returned_tool_makes_two_incisions():
     """The tool leaves the skin while an edit is in flight and comes back: the worker ends
     the first incision before the poses of the second stroke reach it."""
     model = TissueModel.from_patch((0.04, 0.03), 0.002)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(), cut_in_background=1)
-    try:
+    with Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(), cut_in_background=1) as sim:
         for k in range(700):
             sim.step(tool=scalpel(k, lift_at=500) if k < 600 else scalpel(k - 450, y=0.008))
         for k in range(700, 1000):
@@ -104,8 +103,7 @@ def test_a_lifted_and_returned_tool_makes_two_incisions():
         sim.cutter.flush(sim)
         assert sim.cutter.call(sim, "metrics", sim.positions)["cut"]["incisions"] == 2
         assert cut_problems(sim) == []
-    finally:
-        sim.close()
+    assert not sim.cutter._process.is_alive()  # the with block closed it
 
 
 def test_a_mesh_that_cannot_be_cut_is_refused_and_no_worker_is_left():
@@ -126,3 +124,16 @@ def test_worker_failures_reach_the_loop_and_close_stops_it():
     sim.close()
     assert not cutter._process.is_alive()
     sim.close()  # closing twice is harmless
+
+
+def test_a_dead_worker_is_an_error_not_a_hang():
+    model = TissueModel.from_patch((0.02, 0.02), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=True, cut_in_background=True)
+    try:
+        sim.cutter._process.kill()
+        sim.cutter._process.join()
+        with pytest.raises(CutWorkerError, match="died"):
+            for k in range(300):  # the first event finds the pipe closed
+                sim.step(tool=scalpel(k))
+    finally:
+        sim.close()

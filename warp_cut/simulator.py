@@ -123,6 +123,12 @@ class Simulator:
         if isinstance(self.cutter, BackgroundCutter):
             self.cutter.close()
 
+    def __enter__(self) -> Simulator:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
     # --------------------------------------------------------------- set-up
     def _rebuild(self) -> None:
         """Derive device arrays, solver, stable step and substeps from the model."""

@@ -29,6 +29,7 @@ import multiprocessing
 import os
 import time
 import traceback
+import weakref
 from dataclasses import dataclass, field
 from multiprocessing import shared_memory
 
@@ -228,6 +229,30 @@ def _answer(cutter: Cutter, host: _ReplicaHost, kind: str, payload):
     return value(*args) if callable(value) else value
 
 
+class _Resources:
+    """What outlives a BackgroundCutter unless released: the worker, its pipe, the shared
+    buffer (kept apart from the BackgroundCutter so that a finalizer can release them)."""
+
+    def __init__(self, process, conn):
+        self.process, self.conn = process, conn
+        self.shared: _SharedPositions | None = None
+
+    def release(self) -> None:
+        if self.process.is_alive():
+            try:
+                self.conn.send(("stop", None))
+                self.process.join(timeout=5.0)
+            except (BrokenPipeError, OSError):
+                pass
+        if self.process.is_alive():
+            self.process.terminate()
+            self.process.join(timeout=5.0)
+        self.conn.close()
+        if self.shared is not None:
+            self.shared.release(unlink=True)
+            self.shared = None
+
+
 def _worker_cpus() -> set[int] | None:
     """The CPUs the loop's process is not pinned to, or None (not pinned, or no affinity)."""
     if not hasattr(os, "sched_getaffinity"):
@@ -270,8 +295,9 @@ class BackgroundCutter:
                                         name="warp_cut-cutter", daemon=True)
         self._process.start()
         child.close()
+        self._resources = _Resources(self._process, self._conn)
+        self._finalizer = weakref.finalize(self, self._resources.release)
         self._busy = False
-        self._shared: _SharedPositions | None = None
         self._in_flight = 0
         self._received: list[ModelEdit] | None = None
         self._poses = np.zeros((64, 7))
@@ -338,15 +364,15 @@ class BackgroundCutter:
         last event)."""
         start = time.perf_counter()
         n = self.model.node_count
-        if self._shared is None or self._shared.capacity < n:
-            if self._shared is not None:  # the worker is idle: it has read the old one
-                self._shared.release(unlink=True)
-            self._shared = _SharedPositions(self.model.node_table.capacity)
-        self._shared.array[:n] = sim.state.positions.numpy()[:n]
+        shared = self._resources.shared
+        if shared is None or shared.capacity < n:
+            if shared is not None:  # the worker is idle: it has read the old one
+                shared.release(unlink=True)
+            shared = self._resources.shared = _SharedPositions(self.model.node_table.capacity)
+        shared.array[:n] = sim.state.positions.numpy()[:n]
         event = _Event(sim.time, sim.dt, sim.collision, poses, np.array(sim.tool_force),
-                       sim.contact_count, sim.contact_centroid, n, self._shared.name,
-                       self._shared.capacity)
-        self._conn.send(("event", event))
+                       sim.contact_count, sim.contact_centroid, n, shared.name, shared.capacity)
+        self._post(("event", event))
         self._busy, self._in_flight = True, 0
         self.loop_ms["send"].append(1e3 * (time.perf_counter() - start))
 
@@ -376,7 +402,7 @@ class BackgroundCutter:
         """The worker Cutter's ``name(*args)`` (or attribute ``name``), after the edit in
         flight has been applied."""
         self.flush(sim)
-        self._conn.send(("call", (name, args)))
+        self._post(("call", (name, args)))
         return self._expect("done")[0]
 
     def metrics(self, sim) -> dict:
@@ -385,26 +411,22 @@ class BackgroundCutter:
 
     # ----------------------------------------------------------------- life cycle
     def close(self) -> None:
-        """Stop the worker (idempotent)."""
-        if self._process.is_alive():
-            try:
-                self._conn.send(("stop", None))
-                self._process.join(timeout=5.0)
-            except (BrokenPipeError, OSError):
-                pass
-        if self._process.is_alive():
-            self._process.terminate()
-            self._process.join(timeout=5.0)
-        self._conn.close()
-        if self._shared is not None:
-            self._shared.release(unlink=True)
-            self._shared = None
+        """Stop the worker and free the shared buffer (idempotent; also done when the
+        BackgroundCutter is collected or the interpreter exits)."""
+        self._finalizer()
 
     def __enter__(self) -> BackgroundCutter:
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    def _post(self, message) -> None:
+        """Send the worker a message; a worker that has gone is a CutWorkerError."""
+        try:
+            self._conn.send(message)
+        except (BrokenPipeError, OSError) as err:
+            raise CutWorkerError(f"the cut's worker process died (exit code {self._process.exitcode})") from err
 
     def _expect(self, kind: str, timeout: float | None = None):
         """The worker's next answer, which must be ``kind``; its failures raised here."""
