@@ -5,9 +5,13 @@ makes must be the one the in-loop Cutter makes on the same stroke (up to the few
 arrives late); its failures must reach the loop as errors, and closing must leave no process.
 """
 
+import math
+
 import numpy as np
 import pytest
 from conftest import DEVICE
+from hypothesis import HealthCheck, Phase, given, seed, settings
+from test_cut_fuzz import cut_cases, make_stroke, make_surface
 
 from warp_cut import Simulator, TissueModel, Tool
 from warp_cut.cut.background import BackgroundCutter, CutWorkerError
@@ -63,13 +67,7 @@ def test_the_loop_model_is_the_worker_replica(background_run):
     sim, model, _, replica = background_run
     assert sim.cutter.edits_applied > 10
     assert set(sim.cutter.lag_steps) == {2}  # max_lag 1: received the step after, applied the next
-    for name in TABLES:
-        ours, theirs = getattr(model, name), getattr(replica, name)
-        assert ours.count == theirs.count, name
-        np.testing.assert_array_equal(ours.alive, theirs.alive, err_msg=name)
-        for column in ours._cols:
-            np.testing.assert_array_equal(ours.column(column), theirs.column(column),
-                                          err_msg=f"{name}.{column}")
+    assert_same_tables(model, replica)
     assert model.topology_version == replica.topology_version
 
 
@@ -137,3 +135,42 @@ def test_a_dead_worker_is_an_error_not_a_hang():
                 sim.step(tool=scalpel(k))
     finally:
         sim.close()
+
+
+def assert_same_tables(model, replica) -> None:
+    """The loop's model and the worker's replica hold the same rows in every table."""
+    for name in TABLES:
+        ours, theirs = getattr(model, name), getattr(replica, name)
+        assert ours.count == theirs.count, name
+        np.testing.assert_array_equal(ours.alive, theirs.alive, err_msg=name)
+        for column in ours._cols:
+            np.testing.assert_array_equal(ours.column(column), theirs.column(column),
+                                          err_msg=f"{name}.{column}")
+
+
+@seed(20261130)
+@settings(max_examples=6, deadline=None, database=None, phases=[Phase.generate],
+          suppress_health_check=list(HealthCheck))
+@given(cut_cases())
+def test_random_strokes_in_the_background_keep_the_invariants_and_the_replica(case):
+    """A random stroke on a random mesh (tests/test_cut_fuzz.py's cases: flat, turned,
+    Delaunay, dome, cylinder, saddle; every integrator), cut in the background with each edit
+    landing two steps late: after every edit the tissue passes the mesh invariants, and at the
+    end the loop's model is the worker's replica and the stroke is one incision."""
+    surf = make_surface(case["mesh"])
+    stroke = make_stroke(surf, case["stroke"])
+    s = case["sim"]
+    gravity = {} if s["gravity"] and s["integrator"] != "xpbd" else {"gravity": None}
+    with Simulator(TissueModel.from_surface(surf), dt=1e-3, device=DEVICE, integrator=s["integrator"],
+                   cutting=CutSettings(interval=s["interval"]), cut_in_background=1, **gravity) as sim:
+        model = sim.model
+        steps = math.ceil(stroke.duration / sim.dt - 1e-9) + 1
+        for k in range(steps + 40):  # the stroke, then 40 ms with the tool away
+            version = model.topology_version
+            sim.step(tool=stroke.pose(k * sim.dt) if k < steps else None)
+            if model.topology_version != version:
+                problems = cut_problems(sim)  # the invariants (folds, which need the surface, aside)
+                assert not problems, problems
+        sim.cutter.flush(sim)
+        assert_same_tables(model, sim.cutter.call(sim, "model"))
+        assert len(sim.cutter.call(sim, "incisions")) == 1
