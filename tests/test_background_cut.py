@@ -14,9 +14,9 @@ from hypothesis import HealthCheck, Phase, given, seed, settings
 from test_cut_fuzz import cut_cases, make_stroke, make_surface
 
 from warp_cut import Simulator, TissueModel, Tool
-from warp_cut.cut.background import BackgroundCutter, CutWorkerError
+from warp_cut.cut.background import BackgroundCutter, _Event
 from warp_cut.cut.cutter import CutSettings
-from warp_cut.errors import InputError
+from warp_cut.errors import CutWorkerError, InputError
 from warp_cut.verify.validity import cut_problems
 
 AXIS = np.array([-0.5, 0.0, 0.866])
@@ -122,6 +122,21 @@ def test_worker_failures_reach_the_loop_and_close_stops_it():
     sim.close()
     assert not cutter._process.is_alive()
     sim.close()  # closing twice is harmless
+
+
+def test_a_failed_event_stops_the_cut_for_good():
+    """An event that fails in the worker leaves its replica unknown: the error reaches the
+    loop, and every later step raises it again instead of cutting a tissue that may differ."""
+    model = TissueModel.from_patch((0.02, 0.02), 0.002)
+    with Simulator(model, dt=1e-3, device=DEVICE, cutting=True, cut_in_background=True) as sim:
+        cutter = sim.cutter
+        cutter._post(("event", _Event(0.0, 1e-3, True, buffer="no-such-buffer", capacity=1, node_count=1)))
+        cutter._busy = True
+        with pytest.raises(CutWorkerError, match="no-such-buffer"):
+            cutter.flush(sim)
+        for _ in range(2):
+            with pytest.raises(CutWorkerError, match="no-such-buffer"):
+                sim.step(tool=scalpel(0))
 
 
 def test_a_dead_worker_is_an_error_not_a_hang():

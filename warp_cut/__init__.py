@@ -9,7 +9,7 @@ Model / State / Control / Solver, as in Warp's sim and Newton:
 """
 
 from .cut.cutter import CutSettings
-from .errors import InputError, SceneError, SimulationUnstable, ToolStartsInside, WarpCutError
+from .errors import CutWorkerError, InputError, SceneError, SimulationUnstable, ToolStartsInside, WarpCutError
 from .sim.collision import cylinder_contacts
 from .sim.control import Tool, ToolPath
 from .sim.material import Material
@@ -21,7 +21,7 @@ from .simulator import Simulator
 __all__ = [
     "TissueModel", "Material", "State", "Tool", "ToolPath", "Simulator", "CutSettings",
     "cylinder_contacts", "stable_time_step", "StepLimit",
-    "WarpCutError", "InputError", "SceneError", "ToolStartsInside", "SimulationUnstable",
+    "WarpCutError", "InputError", "SceneError", "ToolStartsInside", "SimulationUnstable", "CutWorkerError",
 ]
 
 __version__ = "0.1.0"

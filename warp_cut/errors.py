@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-__all__ = ["WarpCutError", "InputError", "SceneError", "ToolStartsInside", "SimulationUnstable"]
+__all__ = ["WarpCutError", "InputError", "SceneError", "ToolStartsInside", "SimulationUnstable",
+           "CutWorkerError"]
 
 
 class WarpCutError(Exception):
@@ -63,3 +64,9 @@ class SimulationUnstable(WarpCutError, RuntimeError):
             f"integration step used {step:.4g} s, estimated stable step {safe_step:.4g} s "
             f"(use a smaller dt or more substeps, or dt = \"auto\")"
         )
+
+
+class CutWorkerError(WarpCutError, RuntimeError):
+    """The background cut's worker process failed (the message carries its traceback) or
+    died. A failed cut event leaves the worker's replica unknown: the cut stops there, and
+    every later step raises this again."""

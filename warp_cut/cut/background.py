@@ -9,18 +9,21 @@ holds a replica of the model and runs the Cutter on it:
    sends it the tool poses since the previous event (a small pipe write), and steps on;
 2. the worker runs the event on its replica and sends back the edit: the changed rows of the
    model's slot tables, the new nodes' positions and the explicit step's new limit;
-3. the loop applies it at the first tick after it arrives (``SlotTable.put_rows`` and
-   ``Simulator.apply_topology_edit``: a few hundred microseconds, nothing that grows with the
-   mesh or the cut).
+3. the loop receives it at the first step after it arrives and applies it at the next
+   (``SlotTable.put_rows`` and ``Simulator.apply_topology_edit``: a few hundred microseconds,
+   nothing that grows with the mesh or the cut). Sending, receiving and applying each take a
+   step of their own.
 
 While an edit is in flight no event is sent; the next is due one interval after the previous
 one was sent, or at once when the tool has left the tissue (the end of an incision). The edit
-applies to the tissue a few milliseconds after the positions it was computed from: the nodes
-have moved by what they move in that time (the tool, at 2 cm/s, about 0.2 mm in 10 ms).
+applies to the tissue some steps after the positions it was computed from (the worker's time
+for the event, 10-20 ms on the bundled patches): the nodes have moved by what they move in
+that time (a tool at 2 cm/s, 0.2-0.4 mm).
 
-The worker runs on the CPU whatever the simulation's device. Everything the Cutter reports
-(``metrics``, ``incisions``, ``gap_profile``, ...) is asked of the worker after the edits in
-flight have been applied.
+The worker runs on the CPU whatever the simulation's device. What the Cutter reports is asked
+of the worker (``metrics(sim)``, or ``call(sim, name, *args)`` for any other method or
+attribute, e.g. ``"incisions"`` or ``"gap_profile"``) after the edit in flight has been
+applied.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ from multiprocessing import shared_memory
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import CutWorkerError, InputError
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel, write_slots
 from ..sim.model import TissueModel
@@ -43,7 +46,7 @@ from ..sim.stability import StepLimit
 from ..sim.state import State
 from .cutter import CutSettings, Cutter
 
-__all__ = ["BackgroundCutter", "CutWorkerError", "TableEdit", "ModelEdit", "DEFAULT_MAX_LAG"]
+__all__ = ["BackgroundCutter", "TableEdit", "ModelEdit", "DEFAULT_MAX_LAG"]
 
 DEFAULT_MAX_LAG = None
 """Steps a cut event may stay in flight before the loop waits for it: None, never (a haptic
@@ -51,10 +54,6 @@ loop would rather cut late than answer late)."""
 _TABLES = ("node_table", "spring_table", "triangle_table", "link_table")
 _START_TIMEOUT_S = 120.0
 """How long the worker may take to start (import Warp, load the cut's kernels) [s]."""
-
-
-class CutWorkerError(RuntimeError):
-    """The cut's worker process failed (its message says where) or died."""
 
 
 @dataclass
@@ -102,9 +101,6 @@ class _Event:
     """Tool poses of the steps since the previous event, the current one last, (k, 7): p0 [m],
     p1 [m], radius [m] (k = 0: no tool)."""
 
-    def tools(self) -> list[Tool]:
-        """The poses as Tools, oldest first."""
-        return [Tool(p0=row[0:3], p1=row[3:6], radius=row[6]) for row in self.poses]
     tool_force: np.ndarray = field(default_factory=lambda: np.zeros(3))
     contact_count: float = 0.0
     contact_centroid: np.ndarray | None = None
@@ -113,6 +109,10 @@ class _Event:
     buffer: str = ""
     """Name of the shared buffer of positions, (capacity, 3) float32."""
     capacity: int = 0
+
+    def tools(self) -> list[Tool]:
+        """The poses as Tools, oldest first."""
+        return [Tool(p0=row[0:3], p1=row[3:6], radius=row[6]) for row in self.poses]
 
 
 class _SharedPositions:
@@ -298,6 +298,7 @@ class BackgroundCutter:
         self._resources = _Resources(self._process, self._conn)
         self._finalizer = weakref.finalize(self, self._resources.release)
         self._busy = False
+        self._failed: str | None = None
         self._in_flight = 0
         self._received: list[ModelEdit] | None = None
         self._poses = np.zeros((64, 7))
@@ -321,6 +322,8 @@ class BackgroundCutter:
         """After every step, one of: receive the worker's edit, apply the edit received at the
         previous step, send a due event (each costs up to a few hundred microseconds: one per
         tick keeps every tick short)."""
+        if self._failed is not None:
+            raise CutWorkerError(self._failed)
         self._record_pose(sim)
         start = time.perf_counter()
         if self._received is not None:
@@ -384,7 +387,11 @@ class BackgroundCutter:
             self._apply(sim)
 
     def _receive(self) -> None:
-        edits, seconds = self._expect("done")
+        try:
+            edits, seconds = self._expect("done")
+        except CutWorkerError as err:  # the replica is unknown now: the cut stops here
+            self._failed = str(err)
+            raise
         self._busy = False
         self._received = edits
         self.worker_ms.append(1e3 * seconds)
