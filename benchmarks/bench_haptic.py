@@ -31,6 +31,7 @@ from common import markdown_table, write_csv, write_markdown
 
 import warp_cut as wc
 from warp_cut.ticks import TickLog, frozen_gc
+from warp_cut.verify.stroke_quality import new_slivers
 
 AXIS = np.array([-0.5, 0.0, 0.866])
 """The scalpel's axis from tip to handle: leaning back 60 degrees along -x."""
@@ -62,7 +63,7 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
     (the Cutter runs in the step), or "background" (``cut_in_background``, loop paced at
     1 kHz as a device would pace it, so the worker has the wall time a real loop gives it)."""
     model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=spacing)
-    nodes = model.node_count
+    nodes, triangles = model.node_count, model.triangle_table.count
     background = cutting == "background"
     made = time.perf_counter()
     sim = wc.Simulator(model, dt=1e-3, cutting=cutting != "no", cut_in_background=background)
@@ -97,7 +98,8 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
             "force_jump_max_n": jump["max"], "force_jump_p99_n": jump["p99"],
             "force_jump_after_cut_n": jump["max_after_cut"] if jump["max_after_cut"] is not None else "",
             "cut_ticks": jump["cut_ticks"],
-            **cut_quality(cut if background else sim.cutter.metrics(sim.positions) if cutting != "no" else None),
+            **cut_quality(cut if background else sim.cutter.metrics(sim.positions) if cutting != "no" else None,
+                          sim, triangles),
             **(worker if background else dict.fromkeys(WORKER_COLUMNS, ""))}
 
 
@@ -166,12 +168,18 @@ def pinned_to(cpu: int | None):
         os.sched_setaffinity(0, before)
 
 
-def cut_quality(metrics: dict | None) -> dict:
-    """Cut events, incisions, holes left open and coverage from the cut's metrics."""
+def cut_quality(metrics: dict | None, sim, first_new_triangle: int) -> dict:
+    """Cut events, incisions, holes left open, coverage and the lips' largest in-plane
+    deviation from the cut's metrics; slivers (< 10 deg) among the triangles the cut made."""
     if metrics is None:
-        return {"cut_events": 0, "incisions": "", "unfilled_holes": "", "coverage": ""}
+        return dict.fromkeys(QUALITY_COLUMNS, "") | {"cut_events": 0}
+    slivers, _ = new_slivers(sim.model, sim.positions, first_new_triangle)
     return {"cut_events": metrics["cut"]["events"], "incisions": metrics["cut"]["incisions"],
-            "unfilled_holes": metrics["cut"]["unfilled_holes"], "coverage": metrics["incision"]["coverage"]}
+            "unfilled_holes": metrics["cut"]["unfilled_holes"], "coverage": metrics["incision"]["coverage"],
+            "lip_deviation_mm": 1e3 * metrics["incision"]["max_deviation_m"], "slivers": slivers}
+
+
+QUALITY_COLUMNS = ["cut_events", "incisions", "unfilled_holes", "coverage", "lip_deviation_mm", "slivers"]
 
 
 WORKER_COLUMNS = ["worker_event_p50_ms", "edit_lag_p50_steps", "edit_lag_max_steps",
@@ -181,8 +189,7 @@ the loop's share of an event (send, receive, apply: one step each)."""
 TICK_COLUMNS = ["path", "spacing_mm", "nodes", "nodes_end", "cutting", "setup_s", "substeps", "tick_first_ms",
                 "tick_p50_ms", "tick_p99_ms", "tick_max_ms", "ticks_over_1ms", "cpu_p99_ms", "cpu_max_ms",
                 "cpu_over_1ms", "realtime_factor", "force_jump_max_n", "force_jump_p99_n",
-                "force_jump_after_cut_n", "cut_ticks", "cut_events", "incisions", "unfilled_holes", "coverage",
-                *WORKER_COLUMNS,
+                "force_jump_after_cut_n", "cut_ticks", *QUALITY_COLUMNS, *WORKER_COLUMNS,
                 "tick_p99_range_ms", "repeats"]
 
 
