@@ -40,6 +40,8 @@ APPROACH_TICKS = 200
 SPEED_TICK = 2e-5
 """Travel along x per 1 ms tick [m] (2 cm/s)."""
 RADIUS = 0.001
+UNPACED_LAG = 50
+"""``max_lag`` [steps] of the unpaced background rows."""
 
 
 def tip_at(k: int, curved: bool) -> np.ndarray:
@@ -58,15 +60,21 @@ def tools(ticks: int, curved: bool) -> list:
             for tip in (tip_at(k, curved) for k in range(ticks))]
 
 
+CUTTING = {"no": None, "in loop": False, "background": True, f"background, lag {UNPACED_LAG}": UNPACED_LAG}
+"""The rows' cut: none, in the step (the Cutter in the loop), in a worker with the loop paced
+at 1 kHz as a device would pace it, and in a worker with the loop as fast as it goes, waiting
+for an edit UNPACED_LAG steps after its event (``max_lag``)."""
+
+
 def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
-    """The README's loop for ``ticks`` ticks; one table row. ``cutting``: "no", "in loop"
-    (the Cutter runs in the step), or "background" (``cut_in_background``, loop paced at
-    1 kHz as a device would pace it, so the worker has the wall time a real loop gives it)."""
+    """The README's loop for ``ticks`` ticks; one table row for a ``CUTTING`` key."""
     model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=spacing)
     nodes, triangles = model.node_count, model.triangle_table.count
-    background = cutting == "background"
+    mode = CUTTING[cutting]
+    background, paced = mode not in (None, False), mode is True
     made = time.perf_counter()
-    sim = wc.Simulator(model, dt=1e-3, cutting=cutting != "no", cut_in_background=background)
+    sim = wc.Simulator(model, dt=1e-3, cutting=mode is not None,
+                       cut_in_background=mode if background else False)
     setup_s = time.perf_counter() - made  # with a background cut, the worker's start
     poses = tools(ticks, curved)
     log = TickLog(ticks, budget=sim.dt, cpu_time=True)
@@ -75,7 +83,7 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
             start = time.perf_counter()
             for k, tool in enumerate(poses):
                 log.step(sim, tool)
-                while background and time.perf_counter() - start < (k + 1) * sim.dt:
+                while paced and time.perf_counter() - start < (k + 1) * sim.dt:
                     pass
             wall = time.perf_counter() - start
         if background:
@@ -220,7 +228,7 @@ def _run(quick: bool, pinned: int | None, repeats: int):
     rows = []
     for spacing in spacings:
         for curved in (False, True):
-            for cutting in ("no", "in loop", "background"):
+            for cutting in CUTTING:
                 row = median_row([tick_run(spacing, curved, cutting, ticks) for _ in range(repeats)])
                 rows.append(row)
                 print(f"  {row['path']} {row['spacing_mm']:g} mm cutting={row['cutting']}: tick p50 "
@@ -257,7 +265,8 @@ def _report(rows, overhead, pinned, load_before, load_after) -> str:
         "that follows a topology edit. `cutting`: no; in loop (the cut event runs inside the "
         "step of its tick); background (`Simulator(cut_in_background=True)`: a worker process "
         "runs the event, the loop only sends positions and applies the edit; the loop is paced "
-        "at 1 kHz, so `realtime_factor` is at most 1; `worker_event_p50_ms`: the worker's time "
+        "at 1 kHz, so `realtime_factor` is at most 1; background, lag 50: the same with the loop "
+        "as fast as it goes, waiting for an edit 50 steps after its event; `worker_event_p50_ms`: the worker's time "
         "per event; `edit_lag_*_steps`: steps from the event to its edit's application; `loop_*_p99_ms`: "
         "the loop's share of an event, sending it, receiving and applying its edit, each in a "
         "tick of its own).", load,

@@ -118,6 +118,8 @@ def test_worker_failures_reach_the_loop_and_close_stops_it():
     cutter = sim.cutter
     with pytest.raises(CutWorkerError, match="AttributeError"):
         cutter.call(sim, "no_such_method")
+    with pytest.raises(InputError, match=r"sim.cutter.metrics\(sim\)"):
+        cutter.metrics(sim.positions)  # a Cutter's signature: refused with the right call
     assert cutter.call(sim, "totals")["events"] == 0  # the worker answers after a failure
     sim.close()
     assert not cutter._process.is_alive()

@@ -413,7 +413,17 @@ class BackgroundCutter:
         return self._expect("done")[0]
 
     def metrics(self, sim) -> dict:
-        """The cut's entries of metrics.json (``Cutter.metrics``) at the current positions."""
+        """The cut's entries of metrics.json (``Cutter.metrics``) at the positions of ``sim``
+        after the edit in flight has been applied. Takes the Simulator, not positions (a
+        Cutter's ``metrics(positions)``): positions read before that edit would not match.
+
+        Raises:
+            InputError: ``sim`` is not a simulation (e.g. a positions array).
+        """
+        if not hasattr(sim, "apply_topology_edit"):
+            raise InputError("BackgroundCutter.metrics takes the Simulator (it applies the edit in "
+                             f"flight first): sim.cutter.metrics(sim), got {type(sim).__name__}")
+        self.flush(sim)
         return self.call(sim, "metrics", sim.positions)
 
     # ----------------------------------------------------------------- life cycle
