@@ -88,7 +88,7 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
             wall = time.perf_counter() - start
         if background:
             sim.cutter.flush(sim)
-            cut = sim.cutter.metrics(sim)
+            cut = sim.cutter.metrics(sim.positions)
             worker = {"worker_event_p50_ms": float(np.median(sim.cutter.worker_ms)),
                       "edit_lag_p50_steps": float(np.median(sim.cutter.lag_steps)),
                       "edit_lag_max_steps": int(np.max(sim.cutter.lag_steps)),

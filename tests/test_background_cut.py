@@ -51,7 +51,7 @@ def cut_stroke(background: bool, ticks: int = 1300, lift_at: int = 1200):
 @pytest.fixture(scope="module")
 def background_run():
     sim, model = cut_stroke(background=True)
-    metrics = sim.cutter.metrics(sim)
+    metrics = sim.cutter.metrics(sim.positions)  # cut_stroke flushed: nothing in flight
     replica = sim.cutter.call(sim, "model")
     yield sim, model, metrics, replica
     sim.close()
@@ -69,6 +69,35 @@ def test_the_loop_model_is_the_worker_replica(background_run):
     assert set(sim.cutter.lag_steps) == {2}  # max_lag 1: received the step after, applied the next
     assert_same_tables(model, replica)
     assert model.topology_version == replica.topology_version
+
+
+def test_what_the_loop_reads_between_edits_is_the_worker_cut(background_run):
+    """Counters, lip pairs, the wound's width and the incision curve are read in the loop
+    without a round trip; they equal the worker Cutter's after the last edit."""
+    sim, _, _, _ = background_run
+    cutter = sim.cutter
+    assert cutter.totals == cutter.call(sim, "totals") and cutter.totals["events"] > 10
+    assert len(cutter.incisions) == len(cutter.call(sim, "incisions")) == 1
+    width = cutter.incision_width(sim.positions)
+    assert np.isfinite(width) and width == cutter.call(sim, "incision_width", sim.positions)
+    worker_curve = cutter.call(sim, "incisions")[-1].curve.control_points_flat()
+    np.testing.assert_array_equal(sim.incision_controls, worker_curve)
+
+
+def test_settings_and_end_incision_reach_the_worker():
+    model = TissueModel.from_patch((0.04, 0.03), 0.002)
+    with Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(), cut_in_background=1) as sim:
+        for k in range(500):
+            sim.step(tool=scalpel(k))
+        cutter = sim.cutter
+        cutter.end_incision(sim)  # the tool is still in: the incision ends anyway
+        assert cutter.call(sim, "current") is None and len(cutter.incisions) == 1
+        stiff = CutSettings(force_threshold=1e9)  # no tool pushes this hard: no new incision
+        cutter.settings = stiff
+        for k in range(500, 560):
+            sim.step(tool=scalpel(k))
+        cutter.flush(sim)
+        assert cutter.call(sim, "settings") == stiff and len(cutter.incisions) == 1
 
 
 def test_the_background_cut_leaves_a_valid_tissue(background_run):
@@ -118,8 +147,10 @@ def test_worker_failures_reach_the_loop_and_close_stops_it():
     cutter = sim.cutter
     with pytest.raises(CutWorkerError, match="AttributeError"):
         cutter.call(sim, "no_such_method")
-    with pytest.raises(InputError, match=r"sim.cutter.metrics\(sim\)"):
-        cutter.metrics(sim.positions)  # a Cutter's signature: refused with the right call
+    cutter._busy = True  # as with an event in flight: its answer would come first
+    with pytest.raises(InputError, match="flush"):
+        cutter.metrics(sim.positions)
+    cutter._busy = False
     assert cutter.call(sim, "totals")["events"] == 0  # the worker answers after a failure
     sim.close()
     assert not cutter._process.is_alive()

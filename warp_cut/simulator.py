@@ -200,9 +200,9 @@ class Simulator:
         cut has been restarted)."""
         if self.cutter is None:
             return None
-        incisions = (self.cutter.call(self, "incisions") if isinstance(self.cutter, BackgroundCutter)
-                     else self.cutter.incisions)
-        curves = [inc.curve for inc in incisions if inc.curve is not None]
+        if isinstance(self.cutter, BackgroundCutter):  # as of the latest edit applied
+            return self.cutter.incision_controls
+        curves = [inc.curve for inc in self.cutter.incisions if inc.curve is not None]
         return curves[-1].control_points_flat() if curves else None
 
     @property

@@ -45,8 +45,9 @@ from ..sim.model import TissueModel
 from ..sim.stability import StepLimit
 from ..sim.state import State
 from .cutter import CutSettings, Cutter
+from .measures import incision_width
 
-__all__ = ["BackgroundCutter", "TableEdit", "ModelEdit", "DEFAULT_MAX_LAG"]
+__all__ = ["BackgroundCutter", "CutSummary", "TableEdit", "ModelEdit", "DEFAULT_MAX_LAG"]
 
 DEFAULT_MAX_LAG = None
 """Steps a cut event may stay in flight before the loop waits for it: None, never (a haptic
@@ -91,6 +92,41 @@ class ModelEdit:
 
 
 @dataclass
+class CutSummary:
+    """What a loop reads of the cut between edits (frames, status lines), as of the latest edit
+    it applied: sent with every edit, so reading it costs no round trip.
+
+    Attributes:
+        totals: The Cutter's counters (``Cutter.totals``).
+        unfilled_holes: Holes left open (``Cutter.unfilled_holes``).
+        pairs: Per incision, its paired lip nodes (k, 2) (``Incision.pairs``).
+        controls: The latest incision's Bezier control points [m], (3 s + 1, 3), or None.
+    """
+
+    totals: dict = field(default_factory=dict)
+    unfilled_holes: int = 0
+    pairs: list = field(default_factory=list)
+    controls: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, cutter: Cutter) -> CutSummary:
+        curves = [inc.curve for inc in cutter.incisions if inc.curve is not None]
+        return cls(dict(cutter.totals), cutter.unfilled_holes, [inc.pairs() for inc in cutter.incisions],
+                   curves[-1].control_points_flat() if curves else None)
+
+
+class _LipPairs:
+    """An incision as the loop sees it between edits: its paired lip nodes (what
+    ``warp_cut.cut.measures.incision_width`` reads)."""
+
+    def __init__(self, pairs: np.ndarray):
+        self._pairs = pairs
+
+    def pairs(self) -> np.ndarray:
+        return self._pairs
+
+
+@dataclass
 class _Event:
     """What the worker needs of one step of the loop (the ``CutHost`` attributes)."""
 
@@ -109,6 +145,8 @@ class _Event:
     buffer: str = ""
     """Name of the shared buffer of positions, (capacity, 3) float32."""
     capacity: int = 0
+    settings: CutSettings | None = None
+    """New cutting parameters, taken before the event (None: unchanged)."""
 
     def tools(self) -> list[Tool]:
         """The poses as Tools, oldest first."""
@@ -220,10 +258,12 @@ def _answer(cutter: Cutter, host: _ReplicaHost, kind: str, payload):
     """An event: run it and return the edits it made. A call: (name, args) of the Cutter."""
     if kind == "event":
         host.load(payload)
+        if payload.settings is not None:
+            cutter.settings = payload.settings
         cutter.catch_up(payload.tools()[:-1])
         host.edits = []
         cutter.after_step(host)
-        return host.edits
+        return host.edits, CutSummary.of(cutter)
     name, args = payload
     value = getattr(cutter, name)
     return value(*args) if callable(value) else value
@@ -286,7 +326,10 @@ class BackgroundCutter:
             raise InputError(f"max_lag must be >= 1 step or None, got {max_lag}")
         self.max_lag = None if max_lag is None else int(max_lag)
         self.model = model
-        self.settings = settings or CutSettings()
+        self._settings = settings or CutSettings()
+        self._settings_due: CutSettings | None = None
+        self.summary = CutSummary()
+        """What the loop reads of the cut between edits, as of the latest edit applied."""
         self.cpus = _worker_cpus() if cpus is None else set(cpus)
         """CPUs the worker runs on (None: wherever the loop's process may run)."""
         context = multiprocessing.get_context("spawn")  # no copy of Warp's state, on every OS
@@ -337,15 +380,21 @@ class BackgroundCutter:
                 self._receive()
                 self.loop_ms["receive"].append(1e3 * (time.perf_counter() - start))
             return
-        due = sim.time - self._last_event >= self.settings.interval - 0.5 * sim.dt
-        if due:  # the worker's Cutter keeps the same clock
-            self._last_event = sim.time
+        due = self._event_due(sim)
         if self._end_due:  # before any pose of a new stroke
             self._end_due = False
             self._send(sim, np.zeros((0, 7)))
         elif due:
             poses, self._pose_count = self._poses[: self._pose_count].copy(), 0
             self._send(sim, poses)
+
+    def _event_due(self, sim) -> bool:
+        """Whether an interval has passed since the last event (then this step's is the last):
+        the worker's Cutter keeps the same clock."""
+        if sim.time - self._last_event < self.settings.interval - 0.5 * sim.dt:
+            return False
+        self._last_event = sim.time
+        return True
 
     def _record_pose(self, sim) -> None:
         """Keep the step's tool pose, or note that the tool has left (the worker ends the
@@ -374,7 +423,9 @@ class BackgroundCutter:
             shared = self._resources.shared = _SharedPositions(self.model.node_table.capacity)
         shared.array[:n] = sim.state.positions.numpy()[:n]
         event = _Event(sim.time, sim.dt, sim.collision, poses, np.array(sim.tool_force),
-                       sim.contact_count, sim.contact_centroid, n, shared.name, shared.capacity)
+                       sim.contact_count, sim.contact_centroid, n, shared.name, shared.capacity,
+                       self._settings_due)
+        self._settings_due = None
         self._post(("event", event))
         self._busy, self._in_flight = True, 0
         self.loop_ms["send"].append(1e3 * (time.perf_counter() - start))
@@ -388,43 +439,97 @@ class BackgroundCutter:
 
     def _receive(self) -> None:
         try:
-            edits, seconds = self._expect("done")
+            answer, seconds = self._expect("done")
         except CutWorkerError as err:  # the replica is unknown now: the cut stops here
             self._failed = str(err)
             raise
         self._busy = False
-        self._received = edits
+        self._received = answer
         self.worker_ms.append(1e3 * seconds)
 
     def _apply(self, sim) -> None:
-        edits, self._received = self._received, None
+        (edits, summary), self._received = self._received, None
         self.lag_steps.append(self._in_flight + 1)
         for edit in edits:
             edit.apply_to(self.model)
             sim.apply_topology_edit(edit.new_nodes, edit.new_positions, edit.explicit_limit)
             self.edits_applied += 1
+        self.summary = summary
 
     # ----------------------------------------------------------------- the Cutter's answers
+    @property
+    def settings(self) -> CutSettings:
+        """The cutting parameters; a new value reaches the worker with the next event."""
+        return self._settings
+
+    @settings.setter
+    def settings(self, value: CutSettings) -> None:
+        self._settings = self._settings_due = value
+
+    @property
+    def totals(self) -> dict:
+        """The Cutter's counters as of the latest edit applied (``Cutter.totals``)."""
+        return self.summary.totals
+
+    @property
+    def unfilled_holes(self) -> int:
+        """Holes left open as of the latest edit applied."""
+        return self.summary.unfilled_holes
+
+    @property
+    def incisions(self) -> list[_LipPairs]:
+        """The incisions as of the latest edit applied, as their paired lip nodes (``pairs()``);
+        the worker's Incision objects are ``call(sim, "incisions")``."""
+        return [_LipPairs(p) for p in self.summary.pairs]
+
+    @property
+    def incision_controls(self) -> np.ndarray | None:
+        """The latest incision's Bezier control points [m], (3 s + 1, 3), or None."""
+        return self.summary.controls
+
+    def incision_width(self, positions: np.ndarray) -> float:
+        """``Cutter.incision_width`` as of the latest edit applied (no round trip)."""
+        return incision_width(self.incisions, self.model, positions)
+
+    def end_incision(self, sim) -> None:
+        """End the incision in progress now (``Cutter.end_incision``): waits for the edit in
+        flight, then for the end's own edit, and applies both."""
+        self.flush(sim)
+        self._event_due(sim)
+        self._send(sim, np.zeros((0, 7)))
+        self._pose_count, self._tool_in, self._end_due = 0, False, False
+        self.flush(sim)
+
     def call(self, sim, name: str, *args):
         """The worker Cutter's ``name(*args)`` (or attribute ``name``), after the edit in
         flight has been applied."""
         self.flush(sim)
+        return self._query(name, *args)
+
+    def _query(self, name: str, *args):
+        """The worker Cutter's ``name(*args)``; no edit may be in flight (its answer comes
+        first, and the positions passed would not match the worker's tissue)."""
+        if self._busy or self._received is not None:
+            raise InputError(f"BackgroundCutter.{name}: an edit is in flight; call "
+                             "sim.cutter.flush(sim) first, then read sim.positions")
         self._post(("call", (name, args)))
         return self._expect("done")[0]
 
-    def metrics(self, sim) -> dict:
-        """The cut's entries of metrics.json (``Cutter.metrics``) at the positions of ``sim``
-        after the edit in flight has been applied. Takes the Simulator, not positions (a
-        Cutter's ``metrics(positions)``): positions read before that edit would not match.
+    def metrics(self, positions: np.ndarray) -> dict:
+        """``Cutter.metrics``, computed by the worker (after ``flush(sim)``)."""
+        return self._query("metrics", positions)
 
-        Raises:
-            InputError: ``sim`` is not a simulation (e.g. a positions array).
-        """
-        if not hasattr(sim, "apply_topology_edit"):
-            raise InputError("BackgroundCutter.metrics takes the Simulator (it applies the edit in "
-                             f"flight first): sim.cutter.metrics(sim), got {type(sim).__name__}")
-        self.flush(sim)
-        return self.call(sim, "metrics", sim.positions)
+    def gap_profile(self, positions: np.ndarray) -> dict:
+        """``Cutter.gap_profile``, computed by the worker (after ``flush(sim)``)."""
+        return self._query("gap_profile", positions)
+
+    def live_new_triangles(self) -> np.ndarray:
+        """``Cutter.live_new_triangles``, computed by the worker (after ``flush(sim)``)."""
+        return self._query("live_new_triangles")
+
+    def latency_summary(self) -> dict:
+        """``Cutter.latency_summary`` of the worker's events (after ``flush(sim)``)."""
+        return self._query("latency_summary")
 
     # ----------------------------------------------------------------- life cycle
     def close(self) -> None:
