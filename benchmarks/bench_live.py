@@ -9,6 +9,8 @@ then cuts 3 cm along +x at 20 mm/s, then leaves. Measured over the 3 cm of cutti
   simulated / compute time, what real-time pacing can reach at best;
 * ``page``: the real-time threads of ``warp-cut live`` with its page served, no browser;
   ``page, cutting off``: the same stroke with cutting off (the blade only presses the skin);
+  ``page, cut in background``: the same with the cut in a worker process
+  (``warp-cut live --cut-in-background``);
 * ``browser``: the same with headless Chromium showing the page (WebGL in SwiftShader, on the
   same two CPU cores as the simulation; skipped without /usr/bin/chromium and playwright).
 
@@ -113,10 +115,10 @@ class _Browser:
         self._pw.stop()
 
 
-def page_case(with_browser: bool, cutting: bool = True) -> dict:
+def page_case(with_browser: bool, cutting: bool = True, background: bool = False) -> dict:
     from warp_cut.live.app import LiveApp  # needs viser (optional)
 
-    live = LiveCut("straight_incision")
+    live = LiveCut("straight_incision", cut_in_background=background)
     live.set_cutting(cutting)
     app = LiveApp(live, port=0)
     browser = None
@@ -127,7 +129,8 @@ def page_case(with_browser: bool, cutting: bool = True) -> dict:
         app.start()
         m = _cut_phase(live, counter=lambda: app.viewer.view.frames_shown,
                        slow_counter=browser.counts if browser else None)
-        case = ("browser" if browser else "page") + ("" if cutting else ", cutting off")
+        case = (("browser" if browser else "page") + ("" if cutting else ", cutting off")
+                + (", cut in background" if background else ""))
         row = {"case": case, "realtime_factor": m["sim_s"] / m["wall_s"],
                "compute_factor": m["sim_s"] / m["compute_s"], **_common(m),
                "view_fps": m["count"] / m["wall_s"], "browser_ws_msgs_per_s": None, "browser_draw_fps": None}
@@ -153,7 +156,8 @@ def run(quick: bool = False, repeats: int = 2):
         return []
     rows = []
     cases = [("engine", engine_case), ("page", lambda: page_case(False)),
-             ("page, cutting off", lambda: page_case(False, cutting=False))]
+             ("page, cutting off", lambda: page_case(False, cutting=False)),
+             ("page, cut in background", lambda: page_case(False, background=True))]
     if _has_browser():
         cases.append(("browser", lambda: page_case(True)))
     for _ in range(1 if quick else repeats):

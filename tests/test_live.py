@@ -90,9 +90,10 @@ def test_clock_runs_the_steps_due_and_counts_what_it_gives_up():
 
 
 # ---------------------------------------------------------------- a scripted cut
-@pytest.fixture(scope="module")
-def cut_run():
-    live = LiveCut("straight_incision", SMALL)
+@pytest.fixture(scope="module", params=[False, 1], ids=["cut in the loop", "cut in the background"])
+def cut_run(request):
+    """A scripted 15 mm cut; in the background with each edit two steps late (max_lag 1)."""
+    live = LiveCut("straight_incision", SMALL, cut_in_background=request.param)
     _, before = live.view_frame()
     straight_cut(live, 0.015)
     yield live, before
@@ -184,8 +185,9 @@ def test_a_second_save_holds_the_run_since_the_start(cut_run, tmp_path):
 
 
 # ---------------------------------------------------------------- commands
-def test_cutting_off_presses_without_cutting_then_on_cuts():
-    with LiveCut("straight_incision", SMALL) as live:
+@pytest.mark.parametrize("background", [False, 1], ids=["cut in the loop", "cut in the background"])
+def test_cutting_off_presses_without_cutting_then_on_cuts(background):
+    with LiveCut("straight_incision", SMALL, cut_in_background=background) as live:
         live.set_cutting(False)
         version = live.sim.model.topology_version
         straight_cut(live, 0.004, settle=0.0)

@@ -150,7 +150,8 @@ def _cmd_live(args) -> int:
     """Cut live in a browser page until Ctrl-C."""
     import_viser()
     check_port(args.host, args.port)  # before the simulation is built
-    live = LiveCut(args.scene, args.set, speed=1e-3 * args.speed)
+    live = LiveCut(args.scene, args.set, speed=1e-3 * args.speed,
+                   cut_in_background=args.cut_in_background)
     try:
         app = LiveApp(live, host=args.host, port=args.port, out_dir=args.out)
         serve(app, f"live cutting of {live.scene.name}")
@@ -275,6 +276,9 @@ def _add_batch(sub) -> None:
                       help="override a scene key (TOML value syntax); repeatable")
     live.add_argument("--out", help="default directory of the page's save button "
                                     "(default: out/<scene name>_live)")
+    live.add_argument("--cut-in-background", action="store_true",
+                      help="run each cut event in a worker process, so that it does not stall "
+                           "the real-time loop (see docs/haptic.md)")
     live.add_argument("--speed", type=float, default=20.0,
                       help="largest scalpel tip speed [mm/s] (default 20)")
     _add_server_options(live)

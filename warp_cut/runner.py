@@ -48,8 +48,9 @@ class RunResult:
     without cutting."""
 
 
-def prepare_simulation(scene: Scene):
-    """Build the model and a Simulator whose dt divides the frame time exactly.
+def prepare_simulation(scene: Scene, cut_in_background: bool | int = False):
+    """Build the model and a Simulator whose dt divides the frame time exactly
+    (``cut_in_background``: as the Simulator's option, for a scene that cuts).
 
     Returns (model, simulator, tool_path, steps_per_frame). Raises InputError (bad scene, tool inside tissue).
     """
@@ -65,6 +66,8 @@ def prepare_simulation(scene: Scene):
         target = dt
     steps_per_frame = max(1, math.ceil(frame_dt / target - 1e-9))
     options = scene.simulator_options()
+    if options.get("cutting") and cut_in_background:
+        options["cut_in_background"] = cut_in_background
     sim = Simulator(model, dt=frame_dt / steps_per_frame, **options)
     path = scene.tool_path()
     if path is not None and scene.physics.collision:

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..cut.background import BackgroundCutter
 from ..errors import InputError, WarpCutError
 from ..io.usd_export import DEFAULT_CHUNK_FRAMES
 from ..runner import prepare_simulation
@@ -133,12 +134,15 @@ class LiveCut:
         speed: largest tip speed of the scalpel [m/s]; turn_rate: of its axis [deg/s].
         view_rate: ViewFrames published per second of wall time while running [1/s].
         chunk_frames: frames per USD chunk file of the recording.
+        cut_in_background: run the cut in a worker process (``Simulator(cut_in_background=...)``):
+            a cut event no longer stalls the real-time loop; True, or the ``max_lag`` in steps.
 
     Raises InputError (SceneError, ToolStartsInside) for a bad scene or overrides.
     """
 
     def __init__(self, scene=None, overrides=(), *, speed: float = 0.02, turn_rate: float = 90.0,
-                 view_rate: float = 30.0, chunk_frames: int = DEFAULT_CHUNK_FRAMES):
+                 view_rate: float = 30.0, chunk_frames: int = DEFAULT_CHUNK_FRAMES,
+                 cut_in_background: bool | int = False):
         base = load_scene(scene, list(overrides))
         if base.tool is None:
             raise InputError(f"{base.path}: a live run needs a [tool] in the scene (its radius, "
@@ -150,6 +154,7 @@ class LiveCut:
         self._dt = base.solver.dt if base.solver.dt != "auto" else 1e-3
         self._frame_steps = max(1, math.ceil(1.0 / (base.fps * self._dt) - 1e-9))
         self._chunk_frames = chunk_frames
+        self._cut_in_background = cut_in_background
         self._speed, self._turn_rate = speed, turn_rate
         self.view_rate = float(view_rate)
         self.params = LiveParameters.from_scene(base)
@@ -179,7 +184,7 @@ class LiveCut:
     def _build(self, params: LiveParameters) -> _Run:
         """A new simulation of the scene with ``params``, recording from frame 0."""
         scene = self._load(params)
-        model, sim, path, steps_per_frame = prepare_simulation(scene)
+        model, sim, path, steps_per_frame = prepare_simulation(scene, self._cut_in_background)
         start = ScalpelPose.from_tool(path.pose_at(0.0))
         motion = ToolMotion(start, length=scene.tool.length, radius=scene.tool.radius,
                             speed=self._speed, turn_rate=self._turn_rate, time=sim.time)
@@ -195,6 +200,7 @@ class LiveCut:
     def _replace_run(self, run: _Run) -> None:
         old, self._run = self._run, run
         old.recording.close()
+        old.sim.close()  # a background cut's worker
         self.error = None
         self._after_pause()
         self._publish(force=True)
@@ -364,6 +370,8 @@ class LiveCut:
                 raise InputError(f"nothing saved: {self.error}; reset or apply new parameters first")
             if run.steps_in_frame:
                 self._step(run.steps_per_frame - run.steps_in_frame)
+            if isinstance(run.sim.cutter, BackgroundCutter):  # the edit in flight, in the files
+                run.sim.cutter.flush(run.sim)
             extra = {"parameters": dataclasses.asdict(self.params), "overrides": self._overrides,
                      "cutting": self.cutting, "behind_s": self._clock.behind,
                      "scalpel_speed_m_s": self._speed}
@@ -472,9 +480,11 @@ class LiveCut:
         self._run_commands()  # a command queued while stopping still gets its answer
 
     def close(self) -> None:
-        """Stop and remove the recording's staging files (saved copies stay)."""
+        """Stop, remove the recording's staging files (saved copies stay) and stop a
+        background cut's worker."""
         self.stop()
         self._run.recording.close()
+        self._run.sim.close()
 
     def __enter__(self):
         return self
