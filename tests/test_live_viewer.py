@@ -3,6 +3,7 @@ controls driving the run, the player against the USD it reads, and the commands'
 port handling and clean shutdown."""
 
 import json
+import os
 import re
 import signal
 import socket
@@ -11,6 +12,7 @@ import sys
 import threading
 import time
 import urllib.request
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -188,6 +190,36 @@ def test_live_command_serves_until_ctrl_c_and_frees_its_port():
             assert page.status == 200 and b"<html" in page.read().lower()
     finally:
         _interrupt(proc, port)
+
+
+def _children(pid: int) -> list[int]:
+    """Processes whose parent is ``pid`` (from /proc)."""
+    kids = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # gone meanwhile
+            continue
+        if int(fields[1]) == pid:
+            kids.append(int(stat.parent.name))
+    return kids
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to find the worker process")
+def test_ctrl_c_stops_the_background_cut_worker_too():
+    """With --cut-in-background, Ctrl-C stops the server, the simulation and the worker, with
+    no traceback from any of them."""
+    proc, url, port = _serve(["live", "--cut-in-background", "--set", "tissue.size=[0.03,0.02]"])
+    workers = _children(proc.pid)
+    try:
+        assert workers, "no worker process"
+        for worker in workers:  # a terminal's Ctrl-C reaches the whole process group
+            os.kill(worker, signal.SIGINT)
+    finally:
+        _interrupt(proc, port)
+    time.sleep(0.5)
+    assert not [w for w in workers if Path(f"/proc/{w}").exists()
+                and "Z" not in Path(f"/proc/{w}/stat").read_text().rsplit(")", 1)[1].split()[0]]
 
 
 @pytest.fixture(scope="module")

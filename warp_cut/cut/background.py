@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 import time
 import traceback
 import weakref
@@ -223,7 +224,10 @@ class _ReplicaHost:
 
 def _serve(conn, model: TissueModel, settings: CutSettings, cpus: set[int] | None) -> None:
     """The worker's loop: build the Cutter, then answer events and calls until told to stop;
-    each answer carries the seconds the worker spent on it."""
+    each answer carries the seconds the worker spent on it. Ctrl-C reaches the loop's whole
+    process group: the worker leaves it to the loop, which stops it (or it ends when the pipe
+    closes)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if cpus:
         os.sched_setaffinity(0, cpus)
     try:
