@@ -40,7 +40,7 @@ RULES = {
     "cli": {"errors", "mesh", "sim", "solvers", "cut", "io", "simulator", "scene", "runner",
             "experiments", "batch", "live"},
     "verify": {"errors", "mesh", "sim", "cut"},
-    "live": {"errors", "sim", "cut", "io", "scene", "runner", "simulator", "ticks"},
+    "live": {"errors", "mesh", "sim", "cut", "io", "scene", "runner", "simulator", "ticks"},
     "__init__": {"errors", "sim", "solvers", "cut", "simulator"},
 }
 """Part -> the parts it may import (module-level imports; a part may always import itself)."""

@@ -17,6 +17,7 @@ from .io.files import write_csv, write_json, write_ply
 from .io.plots import FinalFrame, write_run_plots
 from .io.usd_export import DEFAULT_CHUNK_FRAMES, UsdRecorder
 from .mesh.checks import check_mesh
+from .mesh.geometry import compact_surface
 from .scene import Scene
 from .simulator import Simulator
 from .solvers import INTEGRATORS
@@ -211,10 +212,8 @@ def mesh_quality(sim) -> dict:
 def final_mesh(sim) -> dict:
     """The live surface at the end: compact node numbering, classes kept."""
     model = sim.model
-    live = np.flatnonzero(model.active)
-    remap = np.full(model.node_count, -1, dtype=np.int64)
-    remap[live] = np.arange(len(live))
-    return {"points": sim.positions[live], "triangles": remap[model.triangles],
+    live, triangles = compact_surface(model.active, model.triangles)
+    return {"points": sim.positions[live], "triangles": triangles,
             "node_class": model.node_class[live].copy()}
 
 

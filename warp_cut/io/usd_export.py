@@ -39,6 +39,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from ..cut.classes import NODE_CLASS_COLORS, NodeClass
 from ..errors import InputError, SimulationUnstable
+from ..mesh.geometry import compact_surface
 from .files import atomic_path
 
 __all__ = ["UsdRecorder", "axis_quaternion", "flatten_usd", "DEFAULT_CHUNK_FRAMES", "USD_SUFFIXES"]
@@ -275,15 +276,10 @@ class UsdRecorder:
         """
         model = sim.model
         if self._topology is None or self._topology[0] != model.topology_version:
-            keep = np.flatnonzero(np.asarray(model.active, dtype=bool))
-            remap = np.full(model.node_count, -1, dtype=np.int64)
-            remap[keep] = np.arange(len(keep))
-            tri = np.asarray(model.triangles, dtype=np.int64).reshape(-1, 3)
-            faces = remap[tri] if len(tri) else np.zeros((0, 3), np.int64)
-            if np.any(faces < 0):
-                bad = int(np.flatnonzero(np.any(faces < 0, axis=1))[0])
-                raise ValueError(f"triangle {bad} {tri[bad].tolist()} uses a deleted node "
-                                 f"(topology_version {model.topology_version})")
+            try:
+                keep, faces = compact_surface(model.active, model.triangles)
+            except ValueError as err:
+                raise ValueError(f"{err} (topology_version {model.topology_version})") from None
             self._topology = (model.topology_version, keep, faces.astype(np.int32).ravel())
         version, keep, faces = self._topology
         self._set_held(TISSUE, "faceVertexCounts", frame, version,

@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..mesh.geometry import compact_surface
+
 __all__ = ["ViewFrame", "SimulatorFrames"]
 
 
@@ -52,13 +54,7 @@ class SimulatorFrames:
     def _topology(self, model) -> None:
         if self._version == model.topology_version:
             return
-        keep = np.flatnonzero(np.asarray(model.active, dtype=bool))
-        remap = np.full(model.node_count, -1, dtype=np.int64)
-        remap[keep] = np.arange(len(keep))
-        tri = np.asarray(model.triangles, dtype=np.int64).reshape(-1, 3)
-        faces = remap[tri] if len(tri) else np.zeros((0, 3), np.int64)
-        if np.any(faces < 0):
-            raise ValueError("a triangle uses a deleted node")  # the model's invariant broken
+        keep, faces = compact_surface(model.active, model.triangles)
         self._version, self._keep, self._faces = model.topology_version, keep, faces.astype(np.int32)
 
     def __call__(self, sim) -> ViewFrame:

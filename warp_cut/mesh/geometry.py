@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["triangle_angles", "triangle_min_angles", "triangle_areas", "triangle_normals",
-           "half_edges", "edges_of", "edge_keys", "boundary_nodes"]
+           "half_edges", "edges_of", "edge_keys", "boundary_nodes", "compact_surface"]
 
 
 # --------------------------------------------------------------------------
@@ -275,3 +275,28 @@ def boundary_nodes(node_count: int, triangles) -> np.ndarray:
     mask = np.zeros(node_count, dtype=bool)
     mask[edges[counts == 1].ravel()] = True
     return mask
+
+
+def compact_surface(active, triangles) -> tuple[np.ndarray, np.ndarray]:
+    """The live surface with its nodes numbered 0..k-1 (for files and viewers).
+
+    Args:
+        active: Which node slots are alive, shape (n,) bool.
+        triangles: Live triangles, node slots, shape (t, 3), integer.
+
+    Returns:
+        The live node slots, shape (k,) int64, and the triangles in their numbering, shape
+        (t, 3) int64.
+
+    Raises:
+        ValueError: A triangle uses a deleted node (the tissue's invariant broken).
+    """
+    keep = np.flatnonzero(np.asarray(active, dtype=bool))
+    remap = np.full(len(active), -1, dtype=np.int64)
+    remap[keep] = np.arange(len(keep))
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    faces = remap[tri] if len(tri) else np.zeros((0, 3), np.int64)
+    if np.any(faces < 0):
+        bad = int(np.flatnonzero(np.any(faces < 0, axis=1))[0])
+        raise ValueError(f"triangle {bad} {tri[bad].tolist()} uses a deleted node")
+    return keep, faces
