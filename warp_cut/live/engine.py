@@ -41,6 +41,7 @@ from ..runner import prepare_simulation
 from ..scene import load_scene
 from ..simulator import DEFAULT_GRAVITY
 from .frames import SimulatorFrames, ViewFrame
+from .loop_thread import LoopThread
 from .pacing import RateMeter, RealTimeClock
 from .recording import LiveRecording
 from .scalpel import ScalpelPose, ToolMotion
@@ -164,8 +165,7 @@ class LiveCut:
         self.generation = 0
         self._lock = threading.RLock()
         self._commands: queue.Queue = queue.Queue()
-        self._thread: threading.Thread | None = None
-        self._stop = threading.Event()
+        self._looper = LoopThread(self._loop, "warp-cut-live-simulation")
         self._clock = RealTimeClock()
         self._meter = RateMeter()
         self._view: ViewFrame | None = None
@@ -262,7 +262,7 @@ class LiveCut:
     @property
     def running(self) -> bool:
         """Whether the run steps in real time on its own thread."""
-        return self._thread is not None and self._thread.is_alive()
+        return self._looper.running
 
     @property
     def speed(self) -> float:
@@ -382,8 +382,7 @@ class LiveCut:
 
     def _submit(self, command):
         """Run ``command`` on the simulation thread (now, if none runs) and return its result."""
-        thread = self._thread
-        if thread is None or not thread.is_alive() or threading.current_thread() is thread:
+        if not self._looper.running or self._looper.is_current():
             return command()
         future: concurrent.futures.Future = concurrent.futures.Future()
         self._commands.put((command, future))
@@ -442,15 +441,15 @@ class LiveCut:
 
     def _loop(self) -> None:
         self._after_pause()
-        while not self._stop.is_set():
+        while not self._looper.stopping.is_set():
             self._run_commands()
             if self.paused or self.error:  # nothing moves: nothing to publish
-                self._stop.wait(0.01)
+                self._looper.stopping.wait(0.01)
                 continue
             run = self._run
             due = self._clock.steps_due(run.sim.time, run.sim.dt)
             if due == 0:
-                self._stop.wait(min(0.005, self._clock.wait_time(run.sim.time, run.sim.dt)))
+                self._looper.stopping.wait(min(0.005, self._clock.wait_time(run.sim.time, run.sim.dt)))
                 continue
             try:
                 self._step(min(due, run.steps_per_frame))
@@ -463,20 +462,12 @@ class LiveCut:
 
     def start(self) -> None:
         """Run in real time on a thread of its own until ``stop``."""
-        if self.running:
-            return
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._loop, name="warp-cut-live-simulation", daemon=True)
-        self._thread.start()
+        self._looper.start()
 
     def stop(self, timeout: float = 30.0) -> None:
         """Stop the thread (after the step in progress) and wait for it."""
-        self._stop.set()
-        thread, self._thread = self._thread, None
-        if thread is not None:
-            thread.join(timeout)
-            if thread.is_alive():
-                raise RuntimeError(f"the simulation thread did not stop within {timeout} s")
+        if not self._looper.stop(timeout):
+            raise RuntimeError(f"the simulation thread did not stop within {timeout} s")
         self._run_commands()  # a command queued while stopping still gets its answer
 
     def close(self) -> None:

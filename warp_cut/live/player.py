@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 
+from .loop_thread import LoopThread
 from .playback import RunPlayback
 from .scene_view import SceneView, mesh_spacing
 
@@ -27,8 +28,7 @@ class PlayerViewer:
         self.view.look_at(first)
         self.current = -1
         self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._looper = LoopThread(self._loop, "warp-cut-view-player")
         self._gui()
         self.show(0)
 
@@ -68,9 +68,9 @@ class PlayerViewer:
         return 0 if self.loop.value else None
 
     def _loop(self) -> None:
-        while not self._stop.is_set():
+        while not self._looper.stopping.is_set():
             if not self.playing.value:
-                self._stop.wait(0.05)
+                self._looper.stopping.wait(0.05)
                 continue
             start = time.perf_counter()
             k = self._next()
@@ -79,16 +79,11 @@ class PlayerViewer:
                 continue
             self.slider.value = k  # draws it (the slider's callback)
             period = 1.0 / (self.playback.fps * float(self.speed.value))
-            self._stop.wait(max(0.0, period - (time.perf_counter() - start)))
+            self._looper.stopping.wait(max(0.0, period - (time.perf_counter() - start)))
 
     def start(self) -> None:
         """Run the play loop on a thread of its own until ``stop``."""
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._loop, name="warp-cut-view-player", daemon=True)
-        self._thread.start()
+        self._looper.start()
 
     def stop(self, timeout: float = 10.0) -> None:
-        self._stop.set()
-        thread, self._thread = self._thread, None
-        if thread is not None:
-            thread.join(timeout)
+        self._looper.stop(timeout)

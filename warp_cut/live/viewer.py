@@ -10,7 +10,6 @@ the others' changes. viser has no keyboard events: nudges are buttons.
 from __future__ import annotations
 
 import collections
-import threading
 import time
 from pathlib import Path
 
@@ -19,6 +18,7 @@ import numpy as np
 from ..errors import InputError, WarpCutError
 from ..io.usd_export import axis_quaternion
 from .engine import LiveCut
+from .loop_thread import LoopThread
 from .scene_view import SceneView, mesh_spacing
 
 __all__ = ["LiveViewer"]
@@ -57,8 +57,7 @@ class LiveViewer:
         self._shown_target = live.target
         self._push_times: collections.deque = collections.deque(maxlen=64)
         self._force: collections.deque = collections.deque()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._looper = LoopThread(self._loop, "warp-cut-live-view")
         self._gui()
         self.push()
 
@@ -229,7 +228,7 @@ class LiveViewer:
 
     def _loop(self) -> None:
         last_panel = 0.0
-        while not self._stop.wait(1.0 / self.rate):
+        while not self._looper.stopping.wait(1.0 / self.rate):
             self.push()
             now = time.perf_counter()
             if now - last_panel >= 0.25:
@@ -238,13 +237,8 @@ class LiveViewer:
 
     def start(self) -> None:
         """Push frames on a thread of its own until ``stop``."""
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._loop, name="warp-cut-live-view", daemon=True)
-        self._thread.start()
+        self._looper.start()
 
     def stop(self, timeout: float = 10.0) -> None:
         """Stop pushing frames and wait for the thread."""
-        self._stop.set()
-        thread, self._thread = self._thread, None
-        if thread is not None:
-            thread.join(timeout)
+        self._looper.stop(timeout)
