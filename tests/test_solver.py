@@ -106,3 +106,25 @@ def test_an_edited_simulator_steps_like_one_built_from_the_edited_model(integrat
     fresh.step(20, tool=tool)
     np.testing.assert_allclose(sim.positions, fresh.positions, rtol=0, atol=1e-7)
     np.testing.assert_allclose(sim.tool_force, fresh.tool_force, rtol=1e-4, atol=1e-7)
+
+
+def test_a_node_table_that_outgrows_its_capacity_keeps_the_state():
+    """More new nodes than the spare slots: both states grow to the new capacity keeping every
+    old position and velocity; the new nodes start where given, at rest; stepping goes on."""
+    model = TissueModel.from_patch((0.01, 0.01), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, gravity=(0.0, 0.0, -9.81))
+    sim.step(3)
+    x, v = sim.positions, sim.velocities
+    table = model.node_table
+    n = table.capacity - table.count + 5  # five past the spare room
+    far = np.tile([0.5, 0.5, 0.5], (n, 1)) + np.arange(n)[:, None] * 1e-3
+    slots = table.append(points=far, masses=np.full(n, 1e-6), damping=np.zeros(n),
+                         pinned=np.ones(n, bool), node_class=np.zeros(n, np.int8))
+    sim.apply_topology_edit(slots, far)
+    assert sim.state.node_count >= table.capacity > len(x) + n - 5
+    np.testing.assert_array_equal(sim.positions[: len(x)], x.astype(np.float32))
+    np.testing.assert_array_equal(sim.velocities[: len(v)], v.astype(np.float32))
+    np.testing.assert_allclose(sim.positions[slots], far, atol=1e-7)
+    assert not sim.velocities[slots].any()
+    sim.step(2)
+    assert np.isfinite(sim.positions).all() and sim.positions[: len(x), 2].min() < x[:, 2].min()

@@ -341,13 +341,7 @@ class Simulator:
         reallocated = self.device_model.sync()
         capacity = self.model.node_table.capacity
         if self._state.node_count < capacity:
-            for attr in ("_state", "_next"):
-                old = getattr(self, attr)
-                x = np.zeros((capacity, 3), np.float32)
-                v = np.zeros((capacity, 3), np.float32)
-                x[: old.node_count] = old.positions.numpy()
-                v[: old.node_count] = old.velocities.numpy()
-                setattr(self, attr, State(x, v, device=self.device))
+            self._state, self._next = self._state.grown(capacity), self._next.grown(capacity)
             reallocated = True
         idx = np.asarray(new_nodes, np.int64)
         for state in (self._state, self._next):

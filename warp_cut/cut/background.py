@@ -216,9 +216,7 @@ class _ReplicaHost:
         self.device_model.sync()
         capacity = self.model.node_table.capacity
         if self.state.node_count < capacity:
-            x = np.zeros((capacity, 3), np.float32)
-            x[: self.state.node_count] = self.state.positions.numpy()
-            self.state = State(x, device="cpu")
+            self.state = self.state.grown(capacity)
         write_slots(self.state.positions, new_nodes, new_positions)
 
 

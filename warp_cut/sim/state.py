@@ -34,3 +34,12 @@ class State:
     def node_count(self) -> int:
         """Node slots the state holds."""
         return self.positions.shape[0]
+
+    def grown(self, capacity: int) -> State:
+        """A state of ``capacity`` node slots on the same device holding this one's positions
+        and velocities (the new slots zero), for a model whose node table grew."""
+        x = np.zeros((capacity, 3), np.float32)
+        v = np.zeros((capacity, 3), np.float32)
+        x[: self.node_count] = self.positions.numpy()
+        v[: self.node_count] = self.velocities.numpy()
+        return State(x, v, device=self.positions.device)
