@@ -16,12 +16,13 @@ from conftest import DEVICE
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from warp_cut import Simulator, TissueModel, stable_time_step
+from warp_cut import Simulator, TissueModel, Tool, stable_time_step
 from warp_cut.cut.classes import NodeClass, SpringClass
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh.checks import check_mesh, triangle_min_angles
 from warp_cut.mesh.surfaces import jittered_delaunay
+from warp_cut.verify.validity import cut_problems
 
 SPACING = 0.002
 """Node spacing of the test patches [m]."""
@@ -605,3 +606,33 @@ def test_delaunay_disk_stroke_leaves_no_hole():
     sim = disk_cut(1124, 0.6253122516287821, check=False)
     cut = sim.cutter.metrics(sim.positions)["cut"]
     assert cut["incisions"] == 1 and cut["unfilled_holes"] == 0, cut
+
+
+def s_curve_tool(k: int) -> Tool:
+    """Tick k of a scalpel (r 1 mm) leaning back 60 degrees along -x: 200 ticks going 8 mm in,
+    then 2 cm/s along y = 8 mm sin(pi x / 2 cm) from x = -2 cm: on the rising part of the
+    curve its shaft leans across the path, and it displaces the tissue beside it."""
+    axis = np.array([-0.5, 0.0, 0.866])
+    x = -0.02 + 2e-5 * max(k - 200, 0)
+    tip = np.array([x, 0.008 * np.sin(np.pi * x / 0.02), 0.004]) - min(k, 200) / 200 * 0.008 / 0.866 * axis
+    return Tool(p0=tip, p1=tip + 0.04 * axis, radius=0.001)
+
+
+def test_the_wound_behind_a_tool_crossing_a_curve_is_filled_while_it_cuts():
+    """Behind the tool the hole is re-meshed as the tool goes, even where a fill's triangle is
+    turned on the skin far from the tool (the tool did not turn it, so waiting for the tool
+    to move on would only let the hole grow with it): 1.5 s into the stroke, past the curve's
+    bend, the opened incision covers >= 0.9 of the tool's path in the skin, and the lips
+    reach to within a few spacings of the tool."""
+    model = TissueModel.from_patch((0.10, 0.06), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings())
+    for k in range(1700):
+        sim.step(tool=s_curve_tool(k))
+    assert cut_problems(sim) == []
+    metrics = sim.cutter.metrics(sim.positions)
+    assert metrics["cut"]["incisions"] == 1
+    assert metrics["incision"]["coverage"] >= 0.9
+    lips = np.flatnonzero(model.active & (model.node_class == NodeClass.LIP))
+    tool = s_curve_tool(1699)
+    crossing = tool.p0 + (0.0 - tool.p0[2]) / (tool.p1[2] - tool.p0[2]) * (tool.p1 - tool.p0)
+    assert np.linalg.norm(sim.positions[lips, :2] - crossing[:2], axis=1).min() < 3 * 0.002 + 0.00115

@@ -494,13 +494,15 @@ def _start_at_slit_start(chain, incision, slots: _LipSlots) -> list[int]:
     return body[k:] + body[:k] + [body[k]]
 
 
-def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_slivers, slots):
+def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_slivers, slots, tool=None):
     """The matching strip between ``chain`` and ``lips``, or, where displaced nodes make it
     fold over or thin, the hole polygon cut into ears: the better-shaped valid one, or None
     when neither is valid (or, with ``defer_slivers``, both have an angle below
     ``min_angle_deg``). Orientation and ears are judged in the hole's coordinates ``chart``
     (the skin facing +z), shapes on the skin (``positions``); no triangle may bridge the slit
-    (``_LipSlots.bridges``)."""
+    (``_LipSlots.bridges``). A candidate with a triangle turned over on the skin waits while
+    ``tool`` (the tool now, or None) is within reach of that triangle: beyond it, the tool is
+    not what turned it, and waiting would only let the hole grow behind the tool."""
     lip_set = set(lips)
 
     def lips_only(tri) -> bool:  # between the lips: it would cover the slit and bury one
@@ -515,7 +517,7 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
         ears = ear_clip(_polygon(chain, lips), chart, _UP, lips_only)
         if _acceptable(ears, editor, chart, _UP, slots, lips_only):
             candidates.append(ears)
-    facing = [c for c in candidates if _faces_out(c, positions, slots.incision)]
+    facing = [c for c in candidates if _faces_out(c, positions, slots.incision, tool)]
     # a triangle turned over on the skin (nodes the tool displaced) waits while the tool cuts;
     # once it has gone, it is accepted rather than leave a hole
     candidates = facing if facing or slots.incision.open_end else candidates
@@ -574,7 +576,7 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
             continue
         tris = None
         for view in _views(incision, positions, chain + lips):
-            tris = _triangulate(chain, lips, editor, view, positions, min_angle_deg, defer_slivers, slots)
+            tris = _triangulate(chain, lips, editor, view, positions, min_angle_deg, defer_slivers, slots, tool)
             if tris is not None:
                 break
         if tris is None:
@@ -676,13 +678,29 @@ def _chart_view(incision, nodes, x) -> _HoleCoordinates:
     return _HoleCoordinates(nodes, np.column_stack([uv, np.zeros(len(nodes))]))
 
 
-def _faces_out(tris, positions, incision) -> bool:
+def _faces_out(tris, positions, incision, tool=None) -> bool:
     """True if every triangle (node triples) turns on the skin (``positions`` [m]) the way of
-    the skin's outward normal at its centre (the incision's normal at its projection)."""
+    the skin's outward normal at its centre (the incision's normal at its projection); with
+    ``tool``, only the triangles within its reach count (``_TOOL_REACH``)."""
     p = positions[[v for t in tris for v in t]].reshape(-1, 3, 3)
+    centres = p.mean(axis=1)
     normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    u, _, _ = incision.project(p.mean(axis=1))
-    return bool((np.einsum("ij,ij->i", normals, incision.normal_at(u)) > 0.0).all())
+    u, _, _ = incision.project(centres)
+    out = np.einsum("ij,ij->i", normals, incision.normal_at(u)) > 0.0
+    if tool is not None:
+        out |= _axis_distance(centres, tool) > tool.radius + _TOOL_REACH * incision.spacing
+    return bool(out.all())
+
+
+_TOOL_REACH = 2.0
+"""Spacings beyond the tool's radius within which the tool is taken to displace nodes."""
+
+
+def _axis_distance(points, tool) -> np.ndarray:
+    """Distance [m] of each point (k, 3) from the tool's axis segment p0-p1."""
+    axis = tool.p1 - tool.p0
+    t = np.clip((points - tool.p0) @ axis / max(float(axis @ axis), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(points - (tool.p0 + t[:, None] * axis), axis=1)
 
 
 def _min_angle(tris, positions) -> float:
