@@ -6,15 +6,18 @@ arrives late); its failures must reach the loop as errors, and closing must leav
 """
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 from conftest import DEVICE
 from hypothesis import HealthCheck, Phase, given, seed, settings
+from hypothesis import strategies as st
 from test_cut_fuzz import cut_cases, make_stroke, make_surface
 
 from warp_cut import Simulator, TissueModel, Tool
-from warp_cut.cut.background import BackgroundCutter, _Event
+from warp_cut.cut.background import ANCHORS, BackgroundCutter, ModelEdit, _Event, motion_anchors
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.errors import CutWorkerError, InputError
 from warp_cut.verify.validity import cut_problems
@@ -185,6 +188,18 @@ def test_a_dead_worker_is_an_error_not_a_hang():
         sim.close()
 
 
+
+def test_a_script_without_a_main_guard_is_told_why_its_worker_died(tmp_path):
+    """The spawned worker imports the main script; one that makes a background Simulator at
+    its top level kills the worker at start: the error must say so, not just "died"."""
+    script = tmp_path / "no_guard.py"
+    script.write_text("import warp_cut as wc\n"
+                      "model = wc.TissueModel.from_patch((0.02, 0.02), 0.002)\n"
+                      "wc.Simulator(model, dt=1e-3, cutting=True, cut_in_background=True)\n")
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    assert done.returncode != 0
+    assert "CutWorkerError" in done.stderr and "if __name__" in done.stderr
+
 def assert_same_tables(model, replica) -> None:
     """The loop's model and the worker's replica hold the same rows in every table."""
     for name in TABLES:
@@ -222,3 +237,35 @@ def test_random_strokes_in_the_background_keep_the_invariants_and_the_replica(ca
         sim.cutter.flush(sim)
         assert_same_tables(model, sim.cutter.call(sim, "model"))
         assert len(sim.cutter.call(sim, "incisions")) == 1
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_motion_anchors_are_the_nearest_alive_nodes(value):
+    """Against a brute-force search over the alive nodes: the first anchor is the nearest one,
+    every anchor is alive, the weights are positive and sum to 1; a target on a node leans
+    on that node alone."""
+    rng = np.random.default_rng(value)
+    points = rng.uniform(-0.02, 0.02, (60, 3)) * [1.0, 1.0, 0.1]
+    alive = np.flatnonzero(rng.random(60) < 0.7)
+    targets = np.concatenate([rng.uniform(-0.02, 0.02, (5, 3)), points[alive[:1]]])
+    anchors, weights = motion_anchors(points, alive, targets)
+    assert anchors.shape == weights.shape == (6, ANCHORS)
+    assert np.isin(anchors, alive).all()
+    nearest = alive[np.argmin(np.linalg.norm(targets[:, None] - points[alive][None], axis=2), axis=1)]
+    assert np.array_equal(anchors[:, 0], nearest)
+    assert np.all(weights > 0) and np.allclose(weights.sum(axis=1), 1.0)
+    assert weights[-1, 0] == pytest.approx(1.0, abs=1e-5)
+
+
+def test_an_edit_moves_its_new_nodes_with_the_tissue():
+    """Tissue that moved rigidly by d between the event and the step the edit applies at
+    carries the edit's new nodes by d too (the loop applies them where they were made)."""
+    rng = np.random.default_rng(3)
+    at_event = rng.uniform(-0.01, 0.01, (40, 3))
+    new_positions = rng.uniform(-0.005, 0.005, (4, 3))
+    anchors, weights = motion_anchors(at_event, np.arange(40), new_positions)
+    edit = ModelEdit({}, np.arange(40, 44), new_positions, None, 1, anchors, weights)
+    shift = np.array([3e-4, -2e-4, 1e-4])
+    assert np.allclose(edit.positions_now(at_event, at_event + shift), new_positions + shift)
+    assert np.allclose(edit.positions_now(at_event, at_event), new_positions)

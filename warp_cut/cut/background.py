@@ -18,7 +18,10 @@ While an edit is in flight no event is sent; the next is due one interval after 
 one was sent, or at once when the tool has left the tissue (the end of an incision). The edit
 applies to the tissue some steps after the positions it was computed from (the worker's time
 for the event, 10-20 ms on the bundled patches): the nodes have moved by what they move in
-that time (a tool at 2 cm/s, 0.2-0.4 mm).
+that time (a tool at 2 cm/s, 0.2-0.4 mm). Each new node therefore comes with anchors, the
+nearest nodes alive at the event, and the loop moves it by their mean motion since the event
+(inverse-distance weights) when it applies the edit: the new nodes land where the tissue they
+were made in is now.
 
 The worker runs on the CPU whatever the simulation's device. What the Cutter reports is asked
 of the worker (``metrics(sim)``, or ``call(sim, name, *args)`` for any other method or
@@ -48,12 +51,14 @@ from ..sim.state import State
 from .cutter import CutSettings, Cutter
 from .measures import incision_width
 
-__all__ = ["BackgroundCutter", "CutSummary", "TableEdit", "ModelEdit", "DEFAULT_MAX_LAG"]
+__all__ = ["BackgroundCutter", "CutSummary", "TableEdit", "ModelEdit", "DEFAULT_MAX_LAG", "motion_anchors"]
 
 DEFAULT_MAX_LAG = None
 """Steps a cut event may stay in flight before the loop waits for it: None, never (a haptic
 loop would rather cut late than answer late)."""
 _TABLES = ("node_table", "spring_table", "triangle_table", "link_table")
+ANCHORS = 3
+"""Nodes whose motion carries a new node from the event to the step its edit applies at."""
 _START_TIMEOUT_S = 120.0
 """How long the worker may take to start (import Warp, load the cut's kernels) [s]."""
 
@@ -77,6 +82,8 @@ class ModelEdit:
         new_positions: Their positions [m], shape (k, 3).
         explicit_limit: The semi-implicit step's limit after the edit.
         topology_version: The model's version after the edit.
+        anchors: Per new node, the slots of its nearest nodes alive at the event, (k, ANCHORS).
+        weights: Their weights (each row sums to 1), (k, ANCHORS).
     """
 
     tables: dict
@@ -84,6 +91,16 @@ class ModelEdit:
     new_positions: np.ndarray
     explicit_limit: StepLimit | None
     topology_version: int
+    anchors: np.ndarray = field(default_factory=lambda: np.zeros((0, ANCHORS), np.int64))
+    weights: np.ndarray = field(default_factory=lambda: np.zeros((0, ANCHORS)))
+
+    def positions_now(self, at_event: np.ndarray, now: np.ndarray) -> np.ndarray:
+        """The new nodes' positions [m] (k, 3) moved as their anchors moved from ``at_event``
+        to ``now`` (both (n, 3), indexed by slot)."""
+        if not len(self.anchors):
+            return self.new_positions
+        moved = np.asarray(now, np.float64)[self.anchors] - np.asarray(at_event, np.float64)[self.anchors]
+        return self.new_positions + np.einsum("ka,kad->kd", self.weights, moved)
 
     def apply_to(self, model: TissueModel) -> None:
         """Write the changed rows into ``model`` (a replica of the one edited)."""
@@ -200,6 +217,8 @@ class _ReplicaHost:
             self.shared = _SharedPositions(event.capacity, event.buffer)
         n = event.node_count
         self.state.positions.numpy()[:n] = self.shared.array[:n]
+        self.at_event = self.shared.array[:n].astype(np.float64)
+        self.alive_at_event = np.flatnonzero(self.model.active[:n])
 
     def apply_topology_edit(self, new_nodes, new_positions, explicit_limit=None) -> None:
         """Record the edit (the changed rows of every table), then mirror it here."""
@@ -211,13 +230,45 @@ class _ReplicaHost:
                 tables[name] = TableEdit(slots, table.rows(slots), table.count)
         new_nodes = np.asarray(new_nodes, np.int64)
         new_positions = np.asarray(new_positions, np.float64).reshape(-1, 3)
+        anchors, weights = motion_anchors(self.at_event, self.alive_at_event, new_positions)
         self.edits.append(ModelEdit(tables, new_nodes, new_positions, explicit_limit,
-                                    self.model.topology_version))
+                                    self.model.topology_version, anchors, weights))
         self.device_model.sync()
         capacity = self.model.node_table.capacity
         if self.state.node_count < capacity:
             self.state = self.state.grown(capacity)
         write_slots(self.state.positions, new_nodes, new_positions)
+
+
+def motion_anchors(points: np.ndarray, alive: np.ndarray, targets: np.ndarray,
+                   k: int = ANCHORS) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` nodes of ``alive`` (slots into ``points`` (n, 3) [m]) nearest each target
+    (m, 3) [m], with inverse-distance weights: ((m, k) slots, (m, k) weights summing to 1).
+    Fewer than ``k`` alive nodes repeat the nearest."""
+    m = len(targets)
+    if not m or not len(alive):
+        return np.zeros((m, k), np.int64), np.zeros((m, k))
+    candidates, d2 = _nearest_around(points, alive, targets, k)
+    take = min(k, len(candidates))
+    order = np.argsort(d2, axis=1)[:, :take]
+    order = np.concatenate([order, np.repeat(order[:, :1], k - take, axis=1)], axis=1)
+    weights = 1.0 / np.maximum(np.sqrt(np.take_along_axis(d2, order, axis=1)), 1e-9)
+    return candidates[order], weights / weights.sum(axis=1, keepdims=True)
+
+
+def _nearest_around(points: np.ndarray, alive: np.ndarray, targets: np.ndarray, k: int):
+    """The slots of ``alive`` in a box around the targets and their squared distances to each
+    target ((c,), (m, c)): the box grows from 1 mm of margin until each target's ``k`` nearest
+    in it are nearer than the margin, so they are its ``k`` nearest of all."""
+    lo, hi = targets.min(axis=0), targets.max(axis=0)
+    p = points[alive]
+    margin = 1e-3
+    while True:
+        inside = np.all((p >= lo - margin) & (p <= hi + margin), axis=1)
+        d2 = ((targets[:, None, :] - p[inside][None, :, :]) ** 2).sum(axis=2)
+        if inside.all() or (inside.sum() >= k and np.partition(d2, k - 1, axis=1)[:, k - 1].max() <= margin**2):
+            return alive[inside], d2
+        margin *= 2.0
 
 
 def _serve(conn, model: TissueModel, settings: CutSettings, cpus: set[int] | None) -> None:
@@ -360,7 +411,19 @@ class BackgroundCutter:
         self.loop_ms: dict[str, list[float]] = {"send": [], "receive": [], "apply": []}
         """The loop's share of each event [ms]: sending it, receiving its edit, applying it
         (each in a step of its own)."""
-        self._expect("ready", timeout=_START_TIMEOUT_S)
+        self._start()
+
+    def _start(self) -> None:
+        """Wait for the worker's "ready"; a worker that dies first is most often a script
+        that makes the Simulator at its top level (the spawned worker imports the script)."""
+        try:
+            self._expect("ready", timeout=_START_TIMEOUT_S)
+        except CutWorkerError as err:
+            self.close()
+            raise CutWorkerError(
+                f"{err}. The worker is a new Python process that imports the main script: a script "
+                "that makes a Simulator with cut_in_background must do so under "
+                "'if __name__ == \"__main__\":' (see the worker's own error above)") from err
 
     # ----------------------------------------------------------------- the loop's side
     def after_step(self, sim) -> None:
@@ -452,9 +515,11 @@ class BackgroundCutter:
     def _apply(self, sim) -> None:
         (edits, summary), self._received = self._received, None
         self.lag_steps.append(self._in_flight + 1)
-        for edit in edits:
+        at_event, now = self._resources.shared.array, sim.state.positions.numpy()
+        arrived = [edit.positions_now(at_event, now) for edit in edits]  # before any slot is reused
+        for edit, positions in zip(edits, arrived):
             edit.apply_to(self.model)
-            sim.apply_topology_edit(edit.new_nodes, edit.new_positions, edit.explicit_limit)
+            sim.apply_topology_edit(edit.new_nodes, positions, edit.explicit_limit)
             self.edits_applied += 1
         self.summary = summary
 
@@ -560,6 +625,7 @@ class BackgroundCutter:
         try:
             got, payload = self._conn.recv()
         except (EOFError, OSError) as err:
+            self._process.join(timeout=1.0)
             raise CutWorkerError(f"the cut's worker process died (exit code {self._process.exitcode})") from err
         if got == "input_error":
             self.close()
