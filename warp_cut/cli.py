@@ -38,7 +38,8 @@ def _cmd_run(args) -> int:
     scene = load_scene(args.scene, args.set)
     out = args.out or os.path.join("out", scene.name)
     result, written = run_to_directory(scene, out, usd=not args.no_usd, usd_path=args.usd,
-                                       usd_chunk=args.usd_chunk, quiet=args.quiet)
+                                       usd_chunk=args.usd_chunk, quiet=args.quiet,
+                                       cut_in_background=args.cut_in_background)
     if not args.quiet:
         m = result.metrics
         print(f"{scene.name}: {m['nodes']} nodes, {m['springs']} springs, {m['steps']} steps of "
@@ -205,6 +206,10 @@ def _add_run(sub) -> None:
     run.add_argument("--usd-chunk", type=int, default=DEFAULT_CHUNK_FRAMES, metavar="FRAMES",
                      help="frames per USD chunk file: memory held, and the most a killed run "
                           f"loses (default {DEFAULT_CHUNK_FRAMES})")
+    run.add_argument("--cut-in-background", action="store_true",
+                     help="cut in a worker process with the run paced at real time, as a live "
+                          "1 kHz loop runs it (the cut then trails the tool by the worker's time; "
+                          "without it the cut runs in the step and the run is reproducible)")
     run.set_defaults(func=_cmd_run)
     val = sub.add_parser("validate", help="check a scene without running it")
     val.add_argument("scene")

@@ -21,7 +21,7 @@ from .mesh.geometry import compact_surface
 from .scene import Scene
 from .simulator import Simulator
 from .solvers import INTEGRATORS
-from .ticks import TickLog, frozen_gc
+from .ticks import Pacer, TickLog, frozen_gc
 
 __all__ = ["RunResult", "prepare_simulation", "run_scene", "run_to_directory", "record_frame",
            "frame_values", "timeseries_columns", "run_metrics", "final_mesh", "write_outputs",
@@ -83,7 +83,7 @@ def _progress(total: int, quiet: bool):
     return tqdm(total=total, unit="frame", desc="simulating", leave=False)
 
 
-def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
+def run_scene(scene: Scene, *, quiet: bool = True, observers=(), cut_in_background: bool = False) -> RunResult:
     """Run a scene to its end.
 
     Args:
@@ -91,11 +91,36 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
         quiet: no progress bar (there is none off a terminal either).
         observers: objects with ``on_frame(sim, frame)``, called after every output frame
             (frame 0 is the initial state), and ``finish(metrics)``, called at the end.
+        cut_in_background: for a scene that cuts, run the cut in a worker process
+            (``Simulator(cut_in_background=True)``) and pace the loop at real time, one step
+            per step dt of wall time, as a haptic device paces it: each edit lands as many
+            steps after its event as the worker took, as it would in a live loop. The worker
+            is stopped at the end.
 
     Returns:
         The metrics, the time series and the final mesh.
     """
-    model, sim, path, steps_per_frame = prepare_simulation(scene)
+    background = bool(cut_in_background) and scene.physics.cutting
+    model, sim, path, steps_per_frame = prepare_simulation(scene, background)
+    try:
+        series, ticks, wall = _step_frames(scene, sim, path, steps_per_frame, quiet, observers,
+                                           Pacer(sim.dt) if background else None)
+        if background:
+            sim.cutter.flush(sim)
+        metrics = run_metrics(scene, sim, series, steps=scene.frame_count * steps_per_frame,
+                              wall_time=wall, ticks=ticks if path is not None else None)
+        for obs in observers:
+            obs.finish(metrics)
+        profile = sim.cutter.gap_profile(sim.positions) if sim.cutter is not None else None
+        return RunResult(metrics, series, final_mesh(sim), profile)
+    finally:
+        sim.close()
+
+
+def _step_frames(scene: Scene, sim: Simulator, path, steps_per_frame: int, quiet: bool, observers,
+                 pacer: Pacer | None) -> tuple[dict, TickLog, float]:
+    """Step the scene's frames one tick at a time (held to ``pacer`` if given), recording each
+    frame; returns (time series, ticks, wall time [s])."""
     frames = scene.frame_count
     series = {c: np.zeros(frames + 1) for c in timeseries_columns(sim)}
     ticks = TickLog(frames * steps_per_frame, budget=sim.dt)
@@ -106,6 +131,8 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
             for frame in range(frames + 1):
                 for _ in range(steps_per_frame if frame else 0):
                     ticks.step(sim, path)  # one step per tick, as a haptic loop calls it
+                    if pacer is not None:
+                        pacer.wait(ticks.count - 1)
                 for obs in observers:
                     obs.on_frame(sim, frame)
                 record_frame(series, frame, sim, ticks)
@@ -114,13 +141,7 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=()) -> RunResult:
     finally:
         if bar is not None:
             bar.close()
-    wall = time.perf_counter() - start
-    metrics = run_metrics(scene, sim, series, steps=frames * steps_per_frame, wall_time=wall,
-                          ticks=ticks if path is not None else None)
-    for obs in observers:
-        obs.finish(metrics)
-    profile = sim.cutter.gap_profile(sim.positions) if sim.cutter is not None else None
-    return RunResult(metrics, series, final_mesh(sim), profile)
+    return series, ticks, time.perf_counter() - start
 
 
 def timeseries_columns(sim: Simulator) -> list[str]:
@@ -238,8 +259,8 @@ def write_outputs(result: RunResult, out_dir) -> list[Path]:
 
 
 def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
-                     usd_chunk: int = DEFAULT_CHUNK_FRAMES, quiet: bool = True
-                     ) -> tuple[RunResult, list[Path]]:
+                     usd_chunk: int = DEFAULT_CHUNK_FRAMES, quiet: bool = True,
+                     cut_in_background: bool = False) -> tuple[RunResult, list[Path]]:
     """Run ``scene`` and write everything a run writes into ``out_dir``: metrics.json,
     timeseries.csv, final_mesh.ply, incision_profile.csv (with cutting), the pictures and
     (``usd``) the USD playback file.
@@ -253,6 +274,7 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
         usd: write USD; ``usd_path`` chooses the file (default ``OUT/<name>.usdc``) and
             ``usd_chunk`` the frames per chunk file.
         quiet: no progress bar.
+        cut_in_background: cut in a worker, the loop paced at real time (``run_scene``).
 
     Returns:
         The run's result and the paths written.
@@ -265,7 +287,8 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
     if usd:
         recorder = UsdRecorder(usd_path or out / f"{scene.name}.usdc", scene, chunk_frames=usd_chunk)
     try:
-        result = run_scene(scene, quiet=quiet, observers=[final] + ([recorder] if recorder else []))
+        result = run_scene(scene, quiet=quiet, observers=[final] + ([recorder] if recorder else []),
+                           cut_in_background=cut_in_background)
     except WarpCutError:
         if recorder is not None:  # bad input or unstable: leave nothing behind
             recorder.abort()

@@ -19,7 +19,24 @@ from contextlib import contextmanager
 
 import numpy as np
 
-__all__ = ["TickLog", "frozen_gc"]
+__all__ = ["TickLog", "Pacer", "frozen_gc"]
+
+
+class Pacer:
+    """Holds a loop to one tick per ``period`` [s] of wall time, as a haptic device paces it:
+    ``wait(k)`` returns once ``k + 1`` periods have passed since the pacer was made (at once
+    if the loop is late). It sleeps while more than 2 ms remain and spins for the rest (a
+    sleep overshoots by up to ~0.1 ms)."""
+
+    def __init__(self, period: float):
+        self.period = float(period)
+        self.start = time.perf_counter()
+
+    def wait(self, k: int) -> None:
+        deadline = self.start + (k + 1) * self.period
+        while (left := deadline - time.perf_counter()) > 0:
+            if left > 2e-3:
+                time.sleep(left - 2e-3)
 
 
 class TickLog:
