@@ -21,6 +21,7 @@ from warp_cut.sim.warp_config import quiet_warp  # noqa: E402
 
 quiet_warp()
 
+import bench_background_quality  # noqa: E402
 import bench_compile  # noqa: E402
 import bench_cut_latency  # noqa: E402
 import bench_haptic  # noqa: E402
@@ -43,7 +44,8 @@ def main(argv=None) -> int:
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
              ("compile time", bench_compile), ("cut event latency", bench_cut_latency),
              ("mesh checks", bench_mesh_checks), ("haptic rate (1 ms ticks)", bench_haptic),
-             ("live cutting (warp-cut live)", bench_live)]
+             ("live cutting (warp-cut live)", bench_live),
+             ("cut quality, cut in the background", bench_background_quality)]
     for name, module in parts:
         print(f"{name}:", flush=True)
         module.run(quick=quick)
