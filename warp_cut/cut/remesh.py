@@ -517,6 +517,9 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
         ears = ear_clip(_polygon(chain, lips), chart, _UP, lips_only)
         if _acceptable(ears, editor, chart, _UP, slots, lips_only):
             candidates.append(ears)
+    candidates = [_flipped_better(c, chart, positions, lambda t: _acceptable(t, editor, chart, _UP, slots, lips_only),
+                                  lambda t: _faces_out(t, positions, slots.incision), min_angle_deg)
+                  for c in candidates]
     facing = [c for c in candidates if _faces_out(c, positions, slots.incision, tool)]
     # a triangle turned over on the skin (nodes the tool displaced) waits while the tool cuts;
     # once it has gone, it is accepted rather than leave a hole
@@ -527,6 +530,81 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
     if _min_angle(best, positions) < min_angle_deg and defer_slivers:
         return None  # the tool moves on: the next event may shape it better
     return best
+
+
+def _flipped_better(tris, chart, positions, acceptable, faces_out=None, below_deg: float = 15.0,
+                    passes: int = 3) -> list:
+    """``tris`` with the edges inside it flipped where a pair of its triangles has an angle
+    below ``below_deg`` and the flip raises the pair's smallest angle (on the skin,
+    ``positions``), both new triangles turning the right way in ``chart`` and, if the pair
+    did, on the skin (``faces_out``, a predicate on a triangle list); the original if the
+    flipped set is not ``acceptable``. Well-shaped pairs are left as they are. The
+    strip's zipping order and an ear's greedy choice can leave a sliver next to a well-shaped
+    neighbour: the flip of their shared edge is the better pair (Lawson's flip, judged by angle)."""
+    original, tris = tris, [tuple(t) for t in tris]
+    for _ in range(passes):
+        flipped = False
+        for edge, (i, j) in _inner_edges(tris).items():
+            if tris[i] is None or tris[j] is None or edge not in _edges_of(tris[i]) or edge not in _edges_of(tris[j]):
+                continue
+            before = _min_angle([tris[i], tris[j]], positions)
+            new = _flip(tris[i], tris[j], edge) if before < below_deg else None
+            if new is None or not all(_valid(t, chart, _UP) for t in new):
+                continue
+            if not _flat_flip(new, (tris[i], tris[j]), positions):
+                continue
+            if faces_out is not None and not faces_out(list(new)) and faces_out([tris[i], tris[j]]):
+                continue
+            if _min_angle(list(new), positions) > before + 1e-6:
+                tris[i], tris[j] = new
+                flipped = True
+        if not flipped:
+            break
+    return tris if tris != list(original) and acceptable(tris) else original
+
+
+def _flat_flip(new, old, positions, min_cos: float = 0.5) -> bool:
+    """True if the flipped pair ``new`` lies on the skin as ``old`` did: on the skin
+    (``positions``) each new triangle's normal is within 60 degrees of the other's and of
+    the old pair's mean normal (a flip across a quad bent on the skin would fold it)."""
+    def unit_normal(tri):
+        a, b, c = positions[list(tri)]
+        n = np.cross(b - a, c - a)
+        return n / max(float(np.linalg.norm(n)), 1e-300)
+    n1, n2 = unit_normal(new[0]), unit_normal(new[1])
+    mean = unit_normal(old[0]) + unit_normal(old[1])
+    mean /= max(float(np.linalg.norm(mean)), 1e-300)
+    return min(float(n1 @ n2), float(n1 @ mean), float(n2 @ mean)) >= min_cos
+
+
+def _edges_of(tri) -> set:
+    a, b, c = tri
+    return {frozenset((a, b)), frozenset((b, c)), frozenset((c, a))}
+
+
+def _inner_edges(tris) -> dict:
+    """Edge (frozenset) -> the indices (i, j) of the two triangles of ``tris`` that share it."""
+    seen, inner = {}, {}
+    for k, tri in enumerate(tris):
+        for edge in _edges_of(tri):
+            if edge in seen:
+                inner[edge] = (seen[edge], k)
+            else:
+                seen[edge] = k
+    return inner
+
+
+def _flip(t1, t2, edge):
+    """The two triangles of the quad t1 + t2 split along its other diagonal, each keeping
+    the pair's turn (t1 = (a, b, c), t2 = (b, a, d) -> (a, d, c), (d, b, c)); None if they
+    do not run the shared edge opposite ways."""
+    k = next(k for k in range(3) if frozenset((t1[k], t1[(k + 1) % 3])) == edge)
+    a, b, c = t1[k], t1[(k + 1) % 3], t1[(k + 2) % 3]
+    m = next((m for m in range(3) if t2[m] == b and t2[(m + 1) % 3] == a), None)
+    if m is None:
+        return None
+    d = t2[(m + 2) % 3]
+    return (a, d, c), (d, b, c)
 
 
 def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
