@@ -7,10 +7,12 @@ turning the same way, no smaller smallest angle, and no flip across a non-convex
 """
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.remesh import _UP, _flip, _flipped_better, _min_angle, _valid
+from warp_cut.cut.remesh import _UP, _flip, _flipped_better, _min_angle, _shape, _valid
+from warp_cut.mesh.checks import triangle_min_angles
 
 
 def signed_areas(tris, x) -> np.ndarray:
@@ -63,3 +65,17 @@ def test_flips_of_a_fan_never_lose_area_turn_or_angle(corners, seed):
     assert np.isclose(signed_areas(flipped, x).sum(), signed_areas(fan, x).sum())
     assert all(_valid(t, x, _UP) for t in flipped)
     assert _min_angle(flipped, x) >= _min_angle(fan, x) - 1e-9
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=9, max_size=9))
+def test_a_triangle_shape_is_its_angles_and_normal(coords):
+    """``_shape`` (plain floats) against numpy: the smallest angle as ``triangle_min_angles``
+    gives it, the unit normal of (b - a) x (c - a)."""
+    x = np.array(coords).reshape(3, 3)
+    n = np.cross(x[1] - x[0], x[2] - x[0])
+    if np.linalg.norm(n) < 1e-3:  # nearly degenerate: no normal to compare
+        return
+    angle, normal = _shape((0, 1, 2), x)
+    assert angle == pytest.approx(triangle_min_angles(x, np.array([[0, 1, 2]]))[0], abs=1e-6)
+    np.testing.assert_allclose(normal, n / np.linalg.norm(n), atol=1e-9)
