@@ -517,19 +517,7 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
         ears = ear_clip(_polygon(chain, lips), chart, _UP, lips_only)
         if _acceptable(ears, editor, chart, _UP, slots, lips_only):
             candidates.append(ears)
-    facing_out = {}
-
-    def faces_out(c) -> bool:
-        key = tuple(c)
-        if key not in facing_out:
-            facing_out[key] = _faces_out(c, positions, slots.incision, tool)
-        return facing_out[key]
-
-    mended = [_flipped_better(c, chart, positions, lambda t: _acceptable(t, editor, chart, _UP, slots, lips_only),
-                              min_angle_deg) for c in candidates]
-    # a flipped fill replaces its original unless it turns against the skin where that did not
-    candidates = [m if m is c or faces_out(m) or not faces_out(c) else c for m, c in zip(mended, candidates)]
-    facing = [c for c in candidates if faces_out(c)]
+    facing = [c for c in candidates if _faces_out(c, positions, slots.incision, tool)]
     # a triangle turned over on the skin (nodes the tool displaced) waits while the tool cuts;
     # once it has gone, it is accepted rather than leave a hole
     candidates = facing if facing or slots.incision.open_end else candidates
@@ -539,105 +527,6 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
     if _min_angle(best, positions) < min_angle_deg and defer_slivers:
         return None  # the tool moves on: the next event may shape it better
     return best
-
-
-def _flipped_better(tris, chart, positions, acceptable, below_deg: float = 15.0, passes: int = 3) -> list:
-    """``tris`` with the edges inside it flipped where a pair of its triangles has an angle
-    below ``below_deg`` and the flip raises the pair's smallest angle (on the skin,
-    ``positions``), both new triangles turning the right way in ``chart`` and lying on the
-    skin as the pair did (``_flat_flip``); ``tris`` itself if nothing was flipped or the
-    flipped set is not ``acceptable``. Well-shaped pairs are left as they are. The
-    strip's zipping order and an ear's greedy choice can leave a sliver next to a well-shaped
-    neighbour: the flip of their shared edge is the better pair (Lawson's flip, judged by angle)."""
-    original, tris = tris, [tuple(t) for t in tris]
-    angles = _triangle_angles(tris, positions)
-    if not tris or min(angles) >= below_deg:  # nothing to mend: the common case, one numpy call
-        return original
-    nodes = sorted({v for t in tris for v in t})
-    xyz = dict(zip(nodes, positions[nodes].tolist()))  # plain floats from here on
-    for _ in range(passes):
-        flipped = False
-        for edge, (i, j) in _inner_edges(tris).items():
-            before = min(angles[i], angles[j])
-            if before >= below_deg or edge not in _edges_of(tris[i]) or edge not in _edges_of(tris[j]):
-                continue
-            new = _flip(tris[i], tris[j], edge)
-            if new is None or not all(_valid(t, chart, _UP) for t in new):
-                continue
-            after = [_shape(t, xyz)[0] for t in new]
-            if min(after) > before + 1e-6 and _flat_flip(new, (tris[i], tris[j]), xyz):
-                tris[i], tris[j] = new
-                angles[i], angles[j] = after
-                flipped = True
-        if not flipped:
-            break
-    return tris if tris != list(original) and acceptable(tris) else original
-
-
-def _triangle_angles(tris, positions) -> list[float]:
-    """Smallest angle [deg] of each triangle (node triples), as a list."""
-    corners = positions[[v for t in tris for v in t]]
-    return triangle_min_angles(corners, np.arange(len(corners)).reshape(-1, 3)).tolist()
-
-
-def _flat_flip(new, old, xyz, min_cos: float = 0.5) -> bool:
-    """True if the flipped pair ``new`` lies on the skin as ``old`` did: on the skin (node ->
-    position [m], ``xyz``) each new triangle's normal is within 60 degrees of the other's and
-    of the old pair's mean normal (a flip across a quad bent on the skin would fold it)."""
-    n1, n2 = (_shape(t, xyz)[1] for t in new)
-    o1, o2 = (_shape(t, xyz)[1] for t in old)
-    mean = [a + b for a, b in zip(o1, o2)]
-    norm = math.sqrt(sum(c * c for c in mean)) or 1e-300
-    mean = [c / norm for c in mean]
-    dot = lambda u, v: u[0] * v[0] + u[1] * v[1] + u[2] * v[2]  # noqa: E731
-    return min(dot(n1, n2), dot(n1, mean), dot(n2, mean)) >= min_cos
-
-
-def _shape(tri, xyz) -> tuple[float, tuple]:
-    """(smallest angle [deg], unit normal) of a triangle on the skin (``xyz``: node -> its
-    position [m], three floats), in plain floats: this runs for every flip tried."""
-    a, b, c = (xyz[v] for v in tri)
-    sides = [[q[k] - p[k] for k in range(3)] for p, q in ((a, b), (b, c), (c, a))]
-    lengths = [math.sqrt(sum(x * x for x in e)) or 1e-300 for e in sides]
-    angles = []
-    for k in range(3):  # the angle between side k and the side before it, reversed
-        e, f = sides[k], sides[k - 1]
-        cos = -sum(x * y for x, y in zip(e, f)) / (lengths[k] * lengths[k - 1])
-        angles.append(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
-    u, w = sides[0], [-x for x in sides[2]]
-    n = (u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0])
-    norm = math.sqrt(sum(x * x for x in n)) or 1e-300
-    return min(angles), tuple(x / norm for x in n)
-
-
-def _edges_of(tri) -> set:
-    a, b, c = tri
-    return {frozenset((a, b)), frozenset((b, c)), frozenset((c, a))}
-
-
-def _inner_edges(tris) -> dict:
-    """Edge (frozenset) -> the indices (i, j) of the two triangles of ``tris`` that share it."""
-    seen, inner = {}, {}
-    for k, tri in enumerate(tris):
-        for edge in _edges_of(tri):
-            if edge in seen:
-                inner[edge] = (seen[edge], k)
-            else:
-                seen[edge] = k
-    return inner
-
-
-def _flip(t1, t2, edge):
-    """The two triangles of the quad t1 + t2 split along its other diagonal, each keeping
-    the pair's turn (t1 = (a, b, c), t2 = (b, a, d) -> (a, d, c), (d, b, c)); None if they
-    do not run the shared edge opposite ways."""
-    k = next(k for k in range(3) if frozenset((t1[k], t1[(k + 1) % 3])) == edge)
-    a, b, c = t1[k], t1[(k + 1) % 3], t1[(k + 2) % 3]
-    m = next((m for m in range(3) if t2[m] == b and t2[(m + 1) % 3] == a), None)
-    if m is None:
-        return None
-    d = t2[(m + 2) % 3]
-    return (a, d, c), (d, b, c)
 
 
 def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
