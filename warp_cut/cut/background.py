@@ -99,7 +99,7 @@ class ModelEdit:
         to ``now`` (both (n, 3), indexed by slot)."""
         if not len(self.anchors):
             return self.new_positions
-        moved = np.asarray(now, np.float64)[self.anchors] - np.asarray(at_event, np.float64)[self.anchors]
+        moved = now[self.anchors].astype(np.float64) - at_event[self.anchors]  # (k, ANCHORS, 3)
         return self.new_positions + np.einsum("ka,kad->kd", self.weights, moved)
 
     def apply_to(self, model: TissueModel) -> None:
