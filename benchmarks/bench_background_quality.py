@@ -13,12 +13,10 @@ Writes results/background_quality.csv and results/background_quality.md.
 
 from __future__ import annotations
 
-import argparse
 import os
 
 import numpy as np
-from bench_haptic import pinned_to
-from common import markdown_table, write_csv, write_markdown
+from common import markdown_table, pinned_cli, pinned_to, write_csv, write_markdown
 
 from warp_cut.runner import run_scene
 from warp_cut.scene import load_scene
@@ -93,11 +91,5 @@ def _report(rows, pinned, load_before, load_after) -> str:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="the straight incision only, one repeat")
-    parser.add_argument("--cpu", type=int, default=None, help="CPU to pin the loop to (default: the last allowed)")
-    parser.add_argument("--repeats", type=int, default=3, help="background runs per scene")
-    args = parser.parse_args()
-    if args.repeats < 1:
-        parser.error(f"--repeats must be >= 1, got {args.repeats}")
+    args = pinned_cli(__doc__, "the straight incision only, one repeat", "background runs per scene")
     run(quick=args.quick, cpu=args.cpu, repeats=args.repeats)

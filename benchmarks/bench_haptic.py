@@ -21,13 +21,11 @@ results/haptic.md; --quick: 2 mm only, shorter loops (a smoke run).
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
-from contextlib import contextmanager
 
 import numpy as np
-from common import markdown_table, write_csv, write_markdown
+from common import markdown_table, pinned_cli, pinned_to, write_csv, write_markdown
 
 import warp_cut as wc
 from warp_cut.ticks import TickLog, frozen_gc
@@ -160,22 +158,6 @@ def call_overhead(spacing: float, chunk: int, repeats: int) -> dict:
             "batched_cpu_ms": float(np.median(b[:, 1]) * 1e3)}
 
 
-@contextmanager
-def pinned_to(cpu: int | None):
-    """Run the block pinned to one CPU (the last allowed when None); yields it, or None where
-    affinity cannot be set. The previous affinity is restored after."""
-    if not hasattr(os, "sched_setaffinity"):
-        yield None
-        return
-    before = os.sched_getaffinity(0)
-    cpu = max(before) if cpu is None else cpu
-    os.sched_setaffinity(0, {cpu})
-    try:
-        yield cpu
-    finally:
-        os.sched_setaffinity(0, before)
-
-
 def cut_quality(metrics: dict | None, sim, first_new_triangle: int) -> dict:
     """Cut events, incisions, holes left open, coverage and the lips' largest in-plane
     deviation from the cut's metrics; slivers (< 10 deg) among the triangles the cut made."""
@@ -280,11 +262,5 @@ def _report(rows, overhead, pinned, load_before, load_after) -> str:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="2 mm only, shorter loops")
-    parser.add_argument("--cpu", type=int, default=None, help="CPU to pin to (default: the last allowed)")
-    parser.add_argument("--repeats", type=int, default=3, help="runs per row; the table gives medians")
-    args = parser.parse_args()
-    if args.repeats < 1:
-        parser.error(f"--repeats must be >= 1, got {args.repeats}")
+    args = pinned_cli(__doc__, "2 mm only, shorter loops", "runs per row; the table gives medians")
     run(quick=args.quick, cpu=args.cpu, repeats=args.repeats)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import argparse
 import csv
 import math
+import os
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -71,3 +74,31 @@ def write_markdown(name: str, title: str, text: str) -> Path:
     path = RESULTS / f"{name}.md"
     path.write_text(f"# {title}\n\n{text}\n")
     return path
+
+
+@contextmanager
+def pinned_to(cpu: int | None):
+    """Run the block pinned to one CPU (the last allowed when None); yields it, or None where
+    affinity cannot be set. The previous affinity is restored after."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield None
+        return
+    before = os.sched_getaffinity(0)
+    cpu = max(before) if cpu is None else cpu
+    os.sched_setaffinity(0, {cpu})
+    try:
+        yield cpu
+    finally:
+        os.sched_setaffinity(0, before)
+
+
+def pinned_cli(doc: str, quick_help: str, repeats_help: str) -> argparse.Namespace:
+    """The command line of a benchmark pinned to one CPU: --quick, --cpu N, --repeats N (>= 1)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help=quick_help)
+    parser.add_argument("--cpu", type=int, default=None, help="CPU to pin the loop to (default: the last allowed)")
+    parser.add_argument("--repeats", type=int, default=3, help=repeats_help)
+    args = parser.parse_args()
+    if args.repeats < 1:
+        parser.error(f"--repeats must be >= 1, got {args.repeats}")
+    return args
