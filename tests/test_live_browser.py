@@ -66,6 +66,11 @@ def cut_page():
         _, frame = live.view_frame()
         wound = frame.points[frame.node_class != NodeClass.NORMAL]
         app.viewer.view.aim(wound.mean(axis=0) + [0.006, -0.002, 0.0], 0.055)
+        # only the wound may show the class colours: viser's logo (bottom left, 83 blue and 54
+        # yellow pixels) and the scalpel's drag handle (blue and yellow axes) are hidden; the
+        # logo failed the control whenever the wound's blue dots covered fewer than 830 pixels
+        app.server.gui.configure_theme(control_width="large", show_logo=False)
+        app.viewer.gizmo.visible = False
         yield app, frame
     finally:
         app.stop()
@@ -112,9 +117,8 @@ def test_page_shows_the_wound_in_class_colours(cut_page, tmp_path):
             page.wait_for_selector("canvas", timeout=60_000)
             _wait_for_connection(app)
             view, counts = _screenshot_when(page, png, lambda n: all(n[c] >= 20 for c in WOUND))
-            # control: the same view without the class dots. The hiding is redone at each try:
-            # the view re-creates the dots (a new handle, shown) when a later frame brings new
-            # classes, e.g. the end of the incision drawn after the run was paused
+            # control: the same view without the class dots (hidden again at each try, in case
+            # a later frame re-created them)
             _, without = _screenshot_when(
                 page, bare, lambda n: all(n[c] <= 0.1 * counts[c] for c in WOUND),
                 before=lambda: setattr(app.viewer.view.handles["dots"], "visible", False))
