@@ -213,3 +213,16 @@ def test_non_manifold_mesh_is_refused_only_for_cutting(tmp_path, capsys, cutting
         assert "fan.obj" in err and "edge_nonmanifold" in err and "Traceback" not in err
     else:
         assert code == 0 and (out / "metrics.json").exists()
+
+
+def test_run_cut_in_background_is_as_quiet_as_the_loop(tmp_path):
+    """``warp-cut run --cut-in-background --quiet``: the worker logs at the loop's Warp level, so
+    its kernel loads are not printed; the run writes its metrics, one incision made."""
+    out = tmp_path / "bg"
+    proc = subprocess.run([sys.executable, "-m", "warp_cut.cli", "run", "--cut-in-background", "--quiet",
+                           "--no-usd", "--out", str(out), *FAST, "--set", "duration=0.5"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "Module " not in proc.stdout + proc.stderr and "initialized" not in proc.stdout + proc.stderr
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["cut"]["incisions"] == 1 and metrics["realtime_factor"] <= 1.0 + 1e-3

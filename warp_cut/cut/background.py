@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 from multiprocessing import shared_memory
 
 import numpy as np
+import warp as wp
 
 from ..errors import CutWorkerError, InputError
 from ..sim.control import Tool
@@ -271,12 +272,13 @@ def _nearest_around(points: np.ndarray, alive: np.ndarray, targets: np.ndarray, 
         margin *= 2.0
 
 
-def _serve(conn, model: TissueModel, settings: CutSettings, cpus: set[int] | None) -> None:
+def _serve(conn, model: TissueModel, settings: CutSettings, cpus: set[int] | None, log_level: int) -> None:
     """The worker's loop: build the Cutter, then answer events and calls until told to stop;
     each answer carries the seconds the worker spent on it. Ctrl-C reaches the loop's whole
     process group: the worker leaves it to the loop, which stops it (or it ends when the pipe
-    closes)."""
+    closes). Warp logs at the loop's level (``log_level``: a quiet CLI stays quiet)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    wp.config.log_level = log_level
     if cpus:
         os.sched_setaffinity(0, cpus)
     try:
@@ -387,8 +389,9 @@ class BackgroundCutter:
         """CPUs the worker runs on (None: wherever the loop's process may run)."""
         context = multiprocessing.get_context("spawn")  # no copy of Warp's state, on every OS
         self._conn, child = context.Pipe()
-        self._process = context.Process(target=_serve, args=(child, model, self.settings, self.cpus),
-                                        name="warp_cut-cutter", daemon=True)
+        self._process = context.Process(
+            target=_serve, args=(child, model, self.settings, self.cpus, wp.config.log_level),
+            name="warp_cut-cutter", daemon=True)
         self._process.start()
         child.close()
         self._resources = _Resources(self._process, self._conn)
