@@ -28,7 +28,7 @@ import numpy as np
 from common import markdown_table, pinned_cli, pinned_to, write_csv, write_markdown
 
 import warp_cut as wc
-from warp_cut.ticks import TickLog, frozen_gc
+from warp_cut.ticks import Pacer, TickLog, frozen_gc
 from warp_cut.verify.stroke_quality import new_slivers
 
 AXIS = np.array([-0.5, 0.0, 0.866])
@@ -78,12 +78,12 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
     log = TickLog(ticks, budget=sim.dt, cpu_time=True)
     try:
         with frozen_gc():
-            start = time.perf_counter()
+            pacer = Pacer(sim.dt)
             for k, tool in enumerate(poses):
                 log.step(sim, tool)
-                while paced and time.perf_counter() - start < (k + 1) * sim.dt:
-                    pass
-            wall = time.perf_counter() - start
+                if paced:
+                    pacer.wait(k)
+            wall = time.perf_counter() - pacer.start
         if background:
             sim.cutter.flush(sim)
             cut = sim.cutter.metrics(sim.positions)

@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 import warp_cut as wc
+from warp_cut.ticks import wait_until
 
 PERIOD = 1e-3
 """The haptic tick [s]: one step of dt = 1 ms per tick."""
@@ -112,15 +113,6 @@ def tool_from_pose(row: np.ndarray) -> wc.Tool:
     return wc.Tool(p0=tip, p1=tip + BLADE_LENGTH * rotate_z(row[4:]), radius=BLADE_RADIUS)
 
 
-def wait_until(deadline: float) -> None:
-    """Sleep until shortly before ``deadline`` (perf_counter seconds), then spin to it."""
-    remaining = deadline - time.perf_counter()
-    if remaining > SPIN:
-        time.sleep(remaining - SPIN)
-    while time.perf_counter() < deadline:
-        pass
-
-
 def report_miss(k: int, late: float, start_late: float, step: float, force: np.ndarray) -> None:
     """Print a missed deadline: by how much [s], how late the tick started (time the machine
     gave to other work, or a sleep that woke late) and how long the step took."""
@@ -149,7 +141,7 @@ def haptic_loop(sim: wc.Simulator, trace: np.ndarray, print_every: int, miss_lin
             deadline += PERIOD * np.ceil((done - deadline) / PERIOD)  # the next tick boundary
         if print_every and k % print_every == 0:
             print(f"tick {k}: t = {sim.time:.3f} s, force {np.round(force, 4).tolist()} N")
-        wait_until(deadline)
+        wait_until(deadline, SPIN)
         deadline += PERIOD
     if missed > miss_lines:
         print(f"... {missed - miss_lines} more missed deadlines not printed")

@@ -5,12 +5,13 @@ metrics.json and timeseries.csv agree with each other and with the step count.""
 import csv
 import gc
 import json
+import time
 
 import numpy as np
 import pytest
 
 from warp_cut.cli import main
-from warp_cut.ticks import TickLog, frozen_gc
+from warp_cut.ticks import TickLog, frozen_gc, wait_until
 
 
 class _Model:
@@ -109,3 +110,16 @@ def test_run_reports_ticks_in_metrics_and_timeseries(tmp_path):
     forces = np.array([[float(r[c]) for c in ("tool_fx", "tool_fy", "tool_fz")] for r in rows])
     # the frames sample the ticks: their changes are no larger than the sum of the ticks'
     assert np.linalg.norm(np.diff(forces, axis=0), axis=1).max() <= j["max"] * (m["steps"] / 6) + 1e-12
+
+
+def test_wait_until_returns_at_the_deadline_not_before():
+    """``wait_until`` (the pacing of ``Pacer``, ``run --cut-in-background`` and the haptic
+    example): never returns before its deadline, whether it sleeps (far) or spins (near), and
+    a deadline already past returns at once without sleeping."""
+    for ahead, spin in ((0.01, 2e-3), (0.003, 2e-4), (0.001, 2e-3)):
+        deadline = time.perf_counter() + ahead
+        wait_until(deadline, spin)
+        assert time.perf_counter() >= deadline
+    past = time.perf_counter() - 1.0
+    wait_until(past)
+    assert time.perf_counter() - past < 1.0 + 0.5  # no second of sleep

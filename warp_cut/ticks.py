@@ -19,24 +19,30 @@ from contextlib import contextmanager
 
 import numpy as np
 
-__all__ = ["TickLog", "Pacer", "frozen_gc"]
+__all__ = ["TickLog", "Pacer", "wait_until", "frozen_gc"]
+
+
+def wait_until(deadline: float, spin: float = 2e-3) -> None:
+    """Return at the wall time ``deadline`` (``time.perf_counter`` seconds), at once if it has
+    passed: sleep until ``spin`` [s] before it, then spin (a sleep wakes up late)."""
+    remaining = deadline - time.perf_counter()
+    if remaining > spin:
+        time.sleep(remaining - spin)
+    while time.perf_counter() < deadline:
+        pass
 
 
 class Pacer:
     """Holds a loop to one tick per ``period`` [s] of wall time, as a haptic device paces it:
     ``wait(k)`` returns once ``k + 1`` periods have passed since the pacer was made (at once
-    if the loop is late). It sleeps while more than 2 ms remain and spins for the rest (a
-    sleep overshoots by up to ~0.1 ms)."""
+    if the loop is late; ``wait_until``)."""
 
     def __init__(self, period: float):
         self.period = float(period)
         self.start = time.perf_counter()
 
     def wait(self, k: int) -> None:
-        deadline = self.start + (k + 1) * self.period
-        while (left := deadline - time.perf_counter()) > 0:
-            if left > 2e-3:
-                time.sleep(left - 2e-3)
+        wait_until(self.start + (k + 1) * self.period)
 
 
 class TickLog:

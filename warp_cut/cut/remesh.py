@@ -21,6 +21,7 @@ import numpy as np
 
 from ..mesh.geometry import triangle_min_angles
 from .classes import NodeClass, SpringClass
+from .incision import closest_on_polyline
 
 __all__ = ["hole_chains", "zip_strip", "ear_clip", "fill_hole"]
 
@@ -688,19 +689,13 @@ def _faces_out(tris, positions, incision, tool=None) -> bool:
     u, _, _ = incision.project(centres)
     out = np.einsum("ij,ij->i", normals, incision.normal_at(u)) > 0.0
     if tool is not None:
-        out |= _axis_distance(centres, tool) > tool.radius + _TOOL_REACH * incision.spacing
+        _, _, _, from_axis = closest_on_polyline(centres, np.stack([tool.p0, tool.p1]))
+        out |= from_axis > tool.radius + _TOOL_REACH * incision.spacing
     return bool(out.all())
 
 
 _TOOL_REACH = 2.0
 """Spacings beyond the tool's radius within which the tool is taken to displace nodes."""
-
-
-def _axis_distance(points, tool) -> np.ndarray:
-    """Distance [m] of each point (k, 3) from the tool's axis segment p0-p1."""
-    axis = tool.p1 - tool.p0
-    t = np.clip((points - tool.p0) @ axis / max(float(axis @ axis), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(points - (tool.p0 + t[:, None] * axis), axis=1)
 
 
 def _min_angle(tris, positions) -> float:
