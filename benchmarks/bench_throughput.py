@@ -48,7 +48,7 @@ def run(repeats: int = 5, quick: bool = False):
         h = 1e-5
         tool = Tool([0, 0, 0.005], [0.03, 0, 0.02], 0.001)
         sims = {}
-        for name, integrator, replay in (("warp", "semi_implicit", "auto"),
+        for name, integrator, replay in (("warp", "semi_implicit", "graph"),
                                          ("warp_plain", "semi_implicit", "launch"),
                                          ("implicit_euler", "implicit_euler", "auto"),
                                          ("xpbd", "xpbd", "auto")):

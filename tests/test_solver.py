@@ -13,6 +13,8 @@ from conftest import DEVICE
 
 from warp_cut import Simulator, TissueModel, Tool
 from warp_cut.solvers import INTEGRATORS
+from warp_cut.solvers.base import CAPTURE_GAP
+from warp_cut.solvers.launches import AUTO_CAPTURE_AFTER
 
 SCRIPT = r"""
 import json, sys
@@ -81,6 +83,41 @@ def test_replayed_launches_match_plain_launches(integrator):
         x, f = run_positions(integrator, replay)
         np.testing.assert_array_equal(x, x_plain)
         np.testing.assert_array_equal(f, f_plain)
+
+
+@pytest.mark.parametrize("integrator", sorted(INTEGRATORS))
+def test_a_later_recording_is_captured_after_its_replays_one_capture_at_a_time(integrator):
+    """The first recording is captured at once; one made later (here: a new substep, as after
+    a cut) replays as commands until AUTO_CAPTURE_AFTER replays, the swapped pair is captured
+    at least CAPTURE_GAP launches later (one capture per tick), and the states stay equal to
+    those of commands alone."""
+    tool = Tool([0, 0, 0.0005], [0.02, 0, 0.02], 0.001)
+    sims = {}
+    for replay in ("auto", "commands"):
+        model = TissueModel.from_patch((0.02, 0.012), 0.002)
+        sims[replay] = sim = Simulator(model, dt=1e-3, integrator=integrator, device=DEVICE)
+        sim.solver.replay = replay
+        sim.solver.topology_changed()
+        sim.step(2, tool=tool)
+    solver = sims["auto"].solver
+    assert {seq.kind for seq in solver._sequences.values()} == {"graph"}
+    h = 0.5 * sims["auto"].substep
+    pairs = {name: [sim.state, sim._next] for name, sim in sims.items()}
+    captured = {}
+    for launch in range(2 * AUTO_CAPTURE_AFTER + 2 * CAPTURE_GAP):
+        for name, sim in sims.items():
+            a, b = pairs[name]
+            sim.solver.step(a, b, tool, h)
+            pairs[name].reverse()
+        for key, seq in solver._sequences.items():
+            if key[2] == h and seq.kind == "graph":
+                captured.setdefault(key, (launch, seq.replays))
+    assert len(captured) == 2, captured
+    (first, replays_a), (second, replays_b) = sorted(captured.values())
+    assert min(replays_a, replays_b) >= AUTO_CAPTURE_AFTER
+    assert second - first >= CAPTURE_GAP
+    final = {name: pairs[name][0].positions.numpy() for name in sims}
+    np.testing.assert_array_equal(final["auto"], final["commands"])
 
 
 @pytest.mark.parametrize("integrator", sorted(INTEGRATORS))

@@ -37,11 +37,14 @@ from ..kernels.diagnostics import displacement_limit_sq
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
 from ..sim.stability import StepLimit, stable_time_step
-from .launches import LaunchSequence
+from .launches import AUTO_CAPTURE_AFTER, LaunchSequence
 from .readout import NO_BAD_NODE, StepReadout
 
 __all__ = ["SolverBase", "CPU_CHUNK"]
 
+CAPTURE_GAP = 8
+"""Solver launches between two graph captures (each costs a few hundred microseconds on the
+CPU): sequences that reach AUTO_CAPTURE_AFTER replays together are captured in different ticks."""
 CPU_CHUNK = 4096
 """Items per thread on the CPU (Warp runs CPU threads in sequence; a thread costs a few ns)."""
 
@@ -90,6 +93,7 @@ class SolverBase:
         self._last_tool: Tool | None = None
         self._clear_stats = None
         self._sequences: dict = {}
+        self._launches, self._last_capture = 0, -CAPTURE_GAP
         self._sort_springs = True  # sort once here; a cut's small appended tail is left in place
         self.topology_changed()
         self._sort_springs = False
@@ -125,17 +129,23 @@ class SolverBase:
         if sequence is None:
             sequence = self.prepare(state_in, state_out, h)
         sequence.launch()
+        self._launches += 1
+        if sequence.capturable and sequence.replays >= AUTO_CAPTURE_AFTER \
+                and self._launches - self._last_capture >= CAPTURE_GAP:
+            sequence.capture()
+            self._last_capture = self._launches
 
     def prepare(self, state_in, state_out, h: float) -> LaunchSequence:
         """Record the launches of a substep from ``state_in`` to ``state_out`` now (``step``
         would on first use) and return them. The states ping-pong, so the swapped pair is
         recorded too: a new recording (the first step, a cut) lengthens one step, not two."""
+        first = not self._sequences  # the solver's first step: capture at once
         for a, b in ((state_out, state_in), (state_in, state_out)):
             key = self._key(a, b, h)
             if key not in self._sequences:
                 sequence = LaunchSequence(self.device, self.replay)
                 self._record(sequence, a, b, float(h))
-                self._sequences[key] = sequence.finalize()
+                self._sequences[key] = sequence.finalize(capture_now=first)
         return self._sequences[self._key(state_in, state_out, h)]
 
     def _key(self, state_in, state_out, h: float) -> tuple:

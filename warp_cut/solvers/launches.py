@@ -9,8 +9,14 @@ size and model counts) and replays them:
 * ``"commands"``: prepared launch commands (``record_cmd=True``), a few microseconds each;
 * ``"launch"``: plain ``wp.launch`` every time (the reference the others are measured against).
 
-``"auto"`` tries a graph and falls back to commands when the device or Warp version cannot
-capture. Scalars (step size, counts) are baked in: a change of any of them is a new sequence.
+``"auto"`` replays commands until its owner calls ``capture`` (a solver does once the sequence
+has been replayed ``AUTO_CAPTURE_AFTER`` times; a solver's first recording is captured at once,
+its step loads the kernels anyway), and keeps the commands when the device or Warp
+version cannot capture. A capture costs a few hundred microseconds on the CPU, a graph replay
+saves about ten per launch: a sequence a cut replaces after a few steps (a new step size) is
+not worth one, and the step that records a sequence stays short.
+
+Scalars (step size, counts) are baked in: a change of any of them is a new sequence.
 Values that change every step (the tool pose) live in device arrays the kernels read.
 """
 
@@ -18,10 +24,12 @@ from __future__ import annotations
 
 import warp as wp
 
-__all__ = ["LaunchSequence", "REPLAY_MODES"]
+__all__ = ["LaunchSequence", "REPLAY_MODES", "AUTO_CAPTURE_AFTER"]
 
 REPLAY_MODES = ("auto", "graph", "commands", "launch")
 """Accepted values of a solver's ``replay`` option."""
+AUTO_CAPTURE_AFTER = 32
+"""Replays of an ``"auto"`` sequence as commands before a solver captures it into a graph."""
 
 
 class LaunchSequence:
@@ -32,7 +40,9 @@ class LaunchSequence:
         mode: One of REPLAY_MODES.
 
     Attributes:
-        graph: The captured graph after ``finalize`` (None if not captured).
+        graph: The captured graph (None until captured: at ``finalize`` in ``"graph"`` mode,
+            by ``capture`` in ``"auto"`` mode).
+        replays: ``launch`` calls so far.
 
     Raises:
         ValueError: An unknown mode.
@@ -46,6 +56,7 @@ class LaunchSequence:
         self._plain: list[tuple] = []
         self._commands: list = []
         self.graph = None
+        self.replays = 0
 
     def add(self, kernel, count: int, inputs: list) -> None:
         """Append a launch.
@@ -63,26 +74,47 @@ class LaunchSequence:
             self._commands.append(wp.launch(kernel, dim=int(count), inputs=inputs,
                                             device=self.device, record_cmd=True))
 
-    def finalize(self) -> LaunchSequence:
-        """Capture the recorded commands into a graph when the mode asks for it.
+    def finalize(self, capture_now: bool = False) -> LaunchSequence:
+        """Capture the recorded commands into a graph now in ``"graph"`` mode, and in
+        ``"auto"`` mode if ``capture_now`` (a first recording, whose step is long anyway:
+        Warp's first capture in a process costs milliseconds).
 
         Returns:
             self.
 
         Raises:
-            Exception: Whatever Warp raised, if mode is ``"graph"`` and capture failed.
+            Exception: Whatever Warp raised, if capture failed.
         """
-        if self.mode in ("auto", "graph") and self._commands:
-            try:
-                with wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
-                    for cmd in self._commands:
-                        cmd.launch()
-                self.graph = capture.graph
-            except Exception:  # a device or Warp build that cannot capture: commands still work
-                if self.mode == "graph":
-                    raise
-                self.graph = None
+        if self.mode == "graph" or capture_now:
+            self.capture()
         return self
+
+    @property
+    def capturable(self) -> bool:
+        """Whether ``capture`` would make a graph: ``"auto"`` mode, commands, none yet."""
+        return self.mode == "auto" and self.graph is None and bool(self._commands)
+
+    def capture(self) -> None:
+        """Capture the commands into ``graph``. In ``"auto"`` mode a device or Warp build that
+        cannot capture keeps the commands; in ``"graph"`` mode its error propagates. Other
+        modes: nothing to do."""
+        if self.mode == "graph":
+            self._capture()
+        elif self.capturable:
+            try:
+                self._capture()
+            except Exception:  # noqa: BLE001 - commands still work
+                self.graph = None
+                self.mode = "commands"  # not tried again
+
+    def _capture(self) -> None:
+        """Capture the commands into ``graph``; Warp's error propagates."""
+        if not self._commands:
+            return
+        with wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
+            for cmd in self._commands:
+                cmd.launch()
+        self.graph = capture.graph
 
     @property
     def kind(self) -> str:
@@ -91,6 +123,7 @@ class LaunchSequence:
 
     def launch(self) -> None:
         """Run the sequence once (as a graph, prepared commands or plain launches)."""
+        self.replays += 1
         if self.graph is not None:
             wp.capture_launch(self.graph)
         elif self.mode == "launch":
@@ -99,3 +132,4 @@ class LaunchSequence:
         else:
             for cmd in self._commands:
                 cmd.launch()
+
