@@ -8,8 +8,8 @@ and cuts the stroke with ``sim.step(tool=pose)`` every 1 ms, as a user does
 (``warp_cut.verify.validity.cut_problems``: indices, duplicates, degenerate triangles, winding,
 manifold edges, springs = edges, masses and their balance, links between live nodes, the device
 mirror, finite state) are hard assertions, and so are the cut's own properties: no exception,
-one incision per stroke. Three are expected failures (``xfail``, with the case that fails):
-no hole open once the tool has left, coverage >= 0.95, no triangle wound against the surface
+one incision per stroke, no hole open once the tool has left. Two are expected failures
+(``xfail``, with the case that fails): coverage >= 0.95, no triangle wound against the surface
 when made. (``make fuzz`` runs thousands of events, several strokes per mesh, crossing earlier cuts;
 its report says where the cut still falls short.)
 """
@@ -121,17 +121,15 @@ def test_one_incision_per_stroke(case):
     assert result.incisions == 1
 
 
-@pytest.mark.xfail(strict=False, reason="a 0.54 mm tool on a 1.8 mm dome mesh (lip offset 0.14 mm): tissue "
-                                        "nodes at the curve leave no room for the last lips, and the end's hole "
-                                        "stays open")
 @fuzz
 def test_no_hole_open_after_the_stroke(case):
     _, result = cut(case)
     assert result.unfilled_holes == 0
 
 
-@pytest.mark.xfail(strict=False, reason="the same 0.54 mm tool on the 1.8 mm dome: its slit stays closed "
-                                        "where the end's hole is (coverage 0.66)")
+@pytest.mark.xfail(strict=False, reason="a 0.54 mm tool on a 1.8 mm dome mesh (lip offset 0.14 mm): tissue "
+                                        "nodes at the curve leave no room for the last lips, and the slit is "
+                                        "closed over where the end's hole was (coverage 0.66)")
 @fuzz
 def test_the_cut_opens_the_whole_stroke(case):
     _, result = cut(case)

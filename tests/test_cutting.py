@@ -16,12 +16,14 @@ from conftest import DEVICE
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from warp_cut import Simulator, TissueModel, Tool, stable_time_step
+from warp_cut import Material, Simulator, TissueModel, Tool, stable_time_step
 from warp_cut.cut.classes import NodeClass, SpringClass
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh.checks import check_mesh, triangle_min_angles
-from warp_cut.mesh.surfaces import jittered_delaunay
+from warp_cut.mesh.surfaces import flat_grid, jittered_delaunay
+from warp_cut.sim import strokes
+from warp_cut.verify.stroke_check import run_stroke
 from warp_cut.verify.validity import cut_problems
 
 SPACING = 0.002
@@ -606,6 +608,28 @@ def test_delaunay_disk_stroke_leaves_no_hole():
     sim = disk_cut(1124, 0.6253122516287821, check=False)
     cut = sim.cutter.metrics(sim.positions)["cut"]
     assert cut["incisions"] == 1 and cut["unfilled_holes"] == 0, cut
+
+
+def test_a_hole_a_thick_tool_leaves_at_the_stroke_end_is_closed_over():
+    """A tool thicker than the spacing (r 2.0 mm on a 1.7 mm grid, tilted 64 degrees, gravity
+    and the foundation on) pushes a lip across the curve near the stroke's end: the hole left
+    there touches the slit at that one lip, so no fill can close it without joining the slit's
+    sides. Once the tool has gone it is closed over (the slit stays closed there): no hole is
+    left, the mesh stays valid after every event, one incision, and most of the stroke is
+    still opened (coverage 0.77; 0.85 with the hole left open before)."""
+    surface = flat_grid(0.0413111842029696, 0.00171044765737931)
+    model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=0.03310187971208809))
+    path = strokes.line([-0.0111884457216376, 0.0014753994358203404], 5.602684401619392, 0.016273897858153114)
+    stroke = strokes.Stroke(surface, path, tilt=math.radians(63.78196440257604), radius=0.0020073533581260626,
+                            depth=0.002160665425005849, speed=0.008160930801347761,
+                            tool_length=0.048489289974786604, margin=3e-3)
+    result = run_stroke(sim, stroke, surface)
+    assert result.exception is None, result.traceback
+    assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
+    assert result.incisions == 1
+    assert result.unfilled_holes == 0
+    assert result.coverage >= 0.75  # 0.77: the closed-over end stays closed (0.85 with the hole open)
 
 
 def s_curve_tool(k: int) -> Tool:

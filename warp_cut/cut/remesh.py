@@ -584,9 +584,12 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
             slots.discard()
             if notch:
                 incision.reached_border = True
-            else:
+                continue
+            if not incision.open_end:
+                tris = _close_over(chain, editor, incision, positions, slots)
+            if tris is None:
                 unfilled.append(chain)  # leave it open (for now) rather than make an invalid mesh
-            continue
+                continue
         made = slots.accept()
         for tri in tris:
             tri = tuple(made.get(v, v) for v in tri)
@@ -595,6 +598,28 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
     classes = _classify(editor, incision, triangles, positions)
     return {"created": slots.created, "triangles": triangles, "chains": len(chains),
             "unfilled": unfilled, "waiting": waiting, "under_tool": under_tool, **classes}
+
+
+def _close_over(chain, editor, incision, positions, slots: _LipSlots):
+    """The last resort once the tool has gone, for a hole that no fill closes without joining
+    the slit's two sides (e.g. a lip pushed across the curve by a thick tool, so the hole
+    touches the slit at one lip): its border alone cut into ears, which may join the sides -
+    the slit stays closed there instead of a hole staying open. Only a hole that spans at most
+    ``_CLOSE_OVER_SPAN`` spacings of the curve: a longer one stays open rather than close a
+    long stretch of the wound. None if not closed."""
+    u, _, _ = incision.project(positions[chain])
+    if float(u.max() - u.min()) > _CLOSE_OVER_SPAN * incision.spacing:
+        return None
+    polygon = _polygon(chain, [])
+    for view in _views(incision, positions, polygon):
+        ears = ear_clip(polygon, view, _UP)
+        if _acceptable(ears, editor, view, _UP, slots, lambda tri: False, may_join=True):
+            return ears
+    return None
+
+
+_CLOSE_OVER_SPAN = 4.0
+"""Spacings of curve a hole may span and still be closed over (``_close_over``)."""
 
 
 def _drop_islands(editor, removed_corners, open_chains) -> None:
@@ -706,15 +731,16 @@ def _min_angle(tris, positions) -> float:
     return float(triangle_min_angles(corners, np.arange(len(corners)).reshape(-1, 3)).min())
 
 
-def _acceptable(strip, editor, positions, normal, slots: _LipSlots, forbidden) -> bool:
+def _acceptable(strip, editor, positions, normal, slots: _LipSlots, forbidden, may_join: bool = False) -> bool:
     """A strip may join the mesh only if every triangle keeps the surface's orientation, none
-    bridges the slit, is ``forbidden`` or repeats a live triangle's corners, and no edge ends
-    up with more than two triangles or the same direction twice."""
+    bridges the slit (unless ``may_join``), is ``forbidden`` or repeats a live triangle's
+    corners, and no edge ends up with more than two triangles or the same direction twice."""
     if not strip:
         return False
     directed = set()
     for tri in strip:
-        if not _valid(tri, positions, normal) or slots.bridges(tri) or forbidden(tri) or _exists(editor, tri):
+        if (not _valid(tri, positions, normal) or (not may_join and slots.bridges(tri)) or forbidden(tri)
+                or _exists(editor, tri)):
             return False
         for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
             if (a, b) in directed:
