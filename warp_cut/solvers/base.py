@@ -139,7 +139,7 @@ class SolverBase:
         """Record the launches of a substep from ``state_in`` to ``state_out`` now (``step``
         would on first use) and return them. The states ping-pong, so the swapped pair is
         recorded too: a new recording (the first step, a cut) lengthens one step, not two."""
-        first = not self._sequences  # the solver's first step: capture at once
+        first = self._launches == 0  # the solver's first step (it loads the kernels): capture at once
         for a, b in ((state_out, state_in), (state_in, state_out)):
             key = self._key(a, b, h)
             if key not in self._sequences:

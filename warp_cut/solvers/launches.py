@@ -132,4 +132,3 @@ class LaunchSequence:
         else:
             for cmd in self._commands:
                 cmd.launch()
-
