@@ -613,7 +613,7 @@ def _close_over(chain, editor, incision, positions, slots: _LipSlots):
     polygon = _polygon(chain, [])
     for view in _views(incision, positions, polygon):
         ears = ear_clip(polygon, view, _UP)
-        if _acceptable(ears, editor, view, _UP, slots, lambda tri: False, may_join=True):
+        if _acceptable(ears, editor, view, _UP, slots, may_join=True):
             return ears
     return None
 
@@ -731,16 +731,17 @@ def _min_angle(tris, positions) -> float:
     return float(triangle_min_angles(corners, np.arange(len(corners)).reshape(-1, 3)).min())
 
 
-def _acceptable(strip, editor, positions, normal, slots: _LipSlots, forbidden, may_join: bool = False) -> bool:
+def _acceptable(strip, editor, positions, normal, slots: _LipSlots, forbidden=None, may_join: bool = False) -> bool:
     """A strip may join the mesh only if every triangle keeps the surface's orientation, none
-    bridges the slit (unless ``may_join``), is ``forbidden`` or repeats a live triangle's
-    corners, and no edge ends up with more than two triangles or the same direction twice."""
+    bridges the slit (unless ``may_join``), is ``forbidden`` (a predicate on node triples, if
+    given) or repeats a live triangle's corners, and no edge ends up with more than two
+    triangles or the same direction twice."""
     if not strip:
         return False
     directed = set()
     for tri in strip:
-        if (not _valid(tri, positions, normal) or (not may_join and slots.bridges(tri)) or forbidden(tri)
-                or _exists(editor, tri)):
+        if (not _valid(tri, positions, normal) or (not may_join and slots.bridges(tri))
+                or (forbidden is not None and forbidden(tri)) or _exists(editor, tri)):
             return False
         for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
             if (a, b) in directed:
