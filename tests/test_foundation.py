@@ -3,7 +3,7 @@
 Compared against: the settling of a large supported sheet under gravity, rho t g / k_f away from
 its border, for every integrator; the stable step of a node held by the foundation alone,
 2 sqrt(rho t / k_f); the lumped areas recomputed from the triangles after a cut (device column
-and incremental stable-step rows against full recomputations).
+and incremental stable-step element rates against full recomputations).
 """
 
 import numpy as np
@@ -13,7 +13,7 @@ from conftest import DEVICE
 from warp_cut import Material, SceneError, Simulator, TissueModel, stable_time_step
 from warp_cut.scene import DEFAULT_FOUNDATION_STIFFNESS, load_scene, parse_scene
 from warp_cut.sim.model import lumped_masses
-from warp_cut.sim.stability import node_stiffness_sums
+from warp_cut.sim.stability import ElementRates, node_stiffness_sums
 from warp_cut.solvers import INTEGRATORS
 
 K_F = 1.0e5  # N/m^3: settles 0.216 mm under gravity
@@ -74,9 +74,15 @@ def test_cut_keeps_areas_and_rows_of_the_foundation_in_sync():
     area = lumped_masses(model.points, model.triangles, 1.0)[live]
     device_area = sim.device_model.node_area.numpy()[: model.node_count][live]
     np.testing.assert_allclose(device_area, area, rtol=1e-5)  # float32 on the device
-    full = node_stiffness_sums(model, sim.positions)
-    np.testing.assert_allclose(cutter.row_sums.sums[live], full[live], rtol=1e-9)
-    assert sim.step_limit.step == pytest.approx(stable_time_step(model, sim.positions).step, rel=1e-9)
+    full = ElementRates(model)  # rated from scratch, against the cutter's incremental update
+    n = model.node_count
+    np.testing.assert_allclose(cutter.element_rates.sums[:n][live], full.sums[:n][live], rtol=1e-9)
+    for kind in ElementRates.KINDS:
+        for incremental, fresh in zip(cutter.element_rates.rates[kind], full.rates[kind]):
+            alive = {"triangles": model.triangle_table, "springs": model.spring_table,
+                     "links": model.link_table, "foundation": model.node_table}[kind].alive
+            np.testing.assert_allclose(incremental[: len(alive)][alive], fresh[: len(alive)][alive], rtol=1e-9)
+    assert sim.step_limit.step == pytest.approx(stable_time_step(model).step, rel=1e-9)
 
 
 def test_scene_keys_of_the_foundation():

@@ -5,9 +5,12 @@ import math
 import numpy as np
 import pytest
 from conftest import DEVICE, chain_model
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from warp_cut import Material, SimulationUnstable, Simulator, TissueModel, stable_time_step
-from warp_cut.sim.stability import spring_geometric_factor
+from warp_cut.mesh.triangulate import delaunay
+from warp_cut.sim.stability import ElementRates, node_stiffness_sums
 from warp_cut.solvers import INTEGRATORS
 
 
@@ -104,9 +107,59 @@ def test_auto_substeps_respect_the_limit():
     assert auto.substeps == 1 and auto.dt == pytest.approx(0.5 * auto.step_limit.step)
 
 
-def test_geometric_factor_for_stretched_and_compressed_springs():
-    np.testing.assert_allclose(spring_geometric_factor([1.0, 2.0, 0.25, 0.0], [1.0, 1.0, 1.0, 1.0]),
-                               [1.0, 1.0, 3.0, 1e12])
+def tangent_stiffness(model, x):
+    """(K over the free nodes' coordinates at positions ``x``, the (3 n,) mask of those
+    coordinates): each spring k [u u^T + (1 - L0 / L)(I - u u^T)], negative across a compressed
+    one."""
+    n = model.node_count
+    K = np.zeros((3 * n, 3 * n))
+    for (i, j), k, rest in zip(model.springs, model.stiffness, model.rest_lengths):
+        d = x[j] - x[i]
+        length = np.linalg.norm(d)
+        uu = np.outer(d, d) / length ** 2
+        block = k * (uu + (1.0 - rest / length) * (np.eye(3) - uu))
+        for a, b, s in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
+            K[3 * a:3 * a + 3, 3 * b:3 * b + 3] += s * block
+    free = np.repeat(~model.pinned, 3)
+    return K[np.ix_(free, free)], free
+
+
+def undamped_iteration_eigenvalues(K, m, h):
+    """Eigenvalues of one undamped semi-implicit step [x; v] -> [x + h v'; v'], v' = v - h M^-1 K x."""
+    B = -h * K / m[:, None]
+    eye = np.eye(len(m))
+    return np.linalg.eigvals(np.block([[eye + h * B, h * eye], [B, eye]]))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_compressed_sheet_needs_no_shorter_step(seed):
+    """Springs squeezed to 0.3 of their rest length (as a tool piles nodes up) are negative
+    across themselves: buckling modes that grow at their physical rate whatever the step (real
+    eigenvalues above 1). At 0.95 x the limit, which ignores positions, no mode oscillates and
+    grows - the numerical instability the limit guards against; past the exact limit of the
+    positive modes one does, so the check can fail."""
+    rng = np.random.default_rng(seed)
+    rest = np.column_stack([rng.uniform(0, 0.01, (12, 2)), np.zeros(12)])
+    tris = delaunay(rest[:, :2])
+    edges = np.unique(np.sort(np.vstack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0)
+    model = TissueModel.from_arrays(rest, edges, 10.0 ** rng.uniform(-6, -4, 12), pinned=[0], damping=0.0,
+                                    stiffness=rng.uniform(50, 500, len(edges)))
+    centre = rest.mean(axis=0)
+    squeezed = centre + 0.3 * (rest - centre)
+    squeezed[:, 2] += rng.normal(scale=1e-4, size=12)
+    K, free = tangent_stiffness(model, squeezed)
+    m = np.repeat(model.masses, 3)[free]
+    w2 = np.linalg.eigvalsh(K / np.sqrt(np.outer(m, m)))
+    assert (w2 < 0).sum() > 0  # it does buckle
+
+    def oscillating_growth(h):
+        ev = undamped_iteration_eigenvalues(K, m, h)
+        growing = ev[np.abs(ev) > 1.0 + 1e-9]
+        return int(np.sum((np.abs(growing.imag) > 1e-9) | (growing.real < 0)))
+
+    limit = stable_time_step(model).step
+    assert oscillating_growth(0.95 * limit) == 0
+    assert oscillating_growth(1.05 * 2.0 / np.sqrt(w2.max())) > 0
 
 
 def iteration_spectral_radius(model, h):
@@ -134,6 +187,126 @@ def test_damped_per_node_limit_is_stable_with_uneven_masses(seed):
                                     damping=3.0, material=Material(damping=3.0))
     h = 0.95 * stable_time_step(model).step
     assert iteration_spectral_radius(model, h) <= 1.0 + 1e-9
+
+
+def scalar_stiffness(model):
+    """(L over the free nodes, the (n,) free mask): the scalar Laplacian of the springs and of
+    the residual links at their largest stiffness F / eps, plus the foundation's k_f A_i on
+    the diagonal - what the element bounds speak of (K <= L x I_3)."""
+    L = np.diag(np.asarray(foundation_diagonal(model), dtype=np.float64))
+    links = np.asarray(model.links).reshape(-1, 2)
+    pairs = np.vstack([model.springs, links])
+    k = np.concatenate([model.stiffness, model.link_force / model.link_smoothing])
+    for (i, j), kk in zip(pairs, k):
+        L[np.ix_([i, j], [i, j])] += kk * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    free = ~model.pinned & model.active
+    return L[np.ix_(free, free)], free
+
+
+def foundation_diagonal(model):
+    """k_f A_i [N/m] per node (0 without a foundation)."""
+    k_f = model.foundation_stiffness
+    return k_f * model.node_areas if k_f > 0 else np.zeros(model.node_count)
+
+
+def generalized_max(L, w):
+    """lambda_max(W^-1 L) for positive weights w."""
+    r = 1.0 / np.sqrt(w)
+    return np.linalg.eigvalsh(L * r[:, None] * r[None, :]).max()
+
+
+def damped_iteration_radius(L, m, D, h):
+    """Spectral radius of semi-implicit Euler with implicit damping (scalar coordinates):
+    v' = (M + h D)^-1 (M v - h L x), x' = x + h v'."""
+    a = m / (m + h * D)
+    B = -h * L / (m + h * D)[:, None]
+    eye = np.eye(len(m))
+    step = np.block([[eye + h * B, h * np.diag(a)], [B, np.diag(a)]])
+    return np.abs(np.linalg.eigvals(step)).max()
+
+
+@st.composite
+def random_sheets(draw):
+    """A jittered Delaunay sheet of 5-14 nodes with random masses (1e-6 - 1e-3 kg), stiffness,
+    damping (some nodes undamped), pins, residual links and foundation."""
+    seed = draw(st.integers(0, 2 ** 32 - 1))
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(5, 15))
+    pts = np.column_stack([rng.uniform(0, 0.01, (n, 2)), np.zeros(n)])
+    tris = delaunay(pts[:, :2])
+    edges = np.unique(np.sort(np.vstack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0)
+    damping = np.where(rng.random(n) < 0.2, 0.0, 10.0 ** rng.uniform(-4, 0.5, n))
+    material = Material(foundation_stiffness=float(rng.choice([0.0, 1e6])))
+    pinned = np.flatnonzero(rng.random(n) < 0.25)
+    model = TissueModel.from_arrays(pts, edges, 10.0 ** rng.uniform(-6, -3, n), pinned=pinned,
+                                    triangles=tris, stiffness=10.0 ** rng.uniform(1, 3, len(edges)),
+                                    damping=damping, material=material)
+    if rng.random() < 0.5:
+        pairs = rng.choice(n, size=(3, 2))
+        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+        if len(pairs):
+            model.add_residual_links(pairs, np.full(len(pairs), 0.002), area=0.05 / model.material.residual_stress,
+                                     smoothing=1e-3)
+    return model
+
+
+@settings(max_examples=60, deadline=None)
+@given(random_sheets())
+def test_element_bounds_hold_and_the_limit_is_stable(model):
+    """Lambda_M and Lambda_D bound the largest eigenvalues of M^-1 K and D^-1 K from above (by
+    the eigenvalues themselves), and the damped limit is stable by the iteration's spectral
+    radius, for any damping (zero at some nodes, not proportional to the masses)."""
+    L, free = scalar_stiffness(model)
+    if not free.any():
+        return
+    m, D = model.masses[free], model.damping[free]
+    (mass_rate, _), (damping_rate, _) = ElementRates(model).bounds()
+    assert generalized_max(L, m) <= mass_rate * (1 + 1e-9) + 1e-9
+    if (D > 0).all():
+        assert generalized_max(L, D) <= damping_rate * (1 + 1e-9) + 1e-9
+    else:  # an undamped node: no damping bound, the step is the undamped one's at least
+        assert damping_rate == np.inf
+    limit = stable_time_step(model)
+    if np.isfinite(limit.step):
+        assert damped_iteration_radius(L, m, D, 0.999 * limit.step) <= 1.0 + 1e-9
+
+
+@pytest.mark.parametrize("size, spacing", [((0.04, 0.04), 0.002), ((0.03, 0.02), 0.001)])
+def test_patch_bound_is_close_to_its_largest_frequency(size, spacing):
+    """On the patch lattice (pinned border) the element bound lies within 15 % above the exact
+    lambda_max(M^-1 K) (inside, a regular lattice's triangle rates 9 k / m, its largest
+    frequency; the lighter nodes by the border add the rest); Gershgorin's row sums (12 k / m
+    inside) lie 25 % or more above it."""
+    model = TissueModel.from_patch(size, spacing, pinned="border")
+    (mass_rate, _), _ = ElementRates(model).bounds()
+    L, free = scalar_stiffness(model)
+    exact = generalized_max(L, model.masses[free])
+    gershgorin = (node_stiffness_sums(model)[free] / model.masses[free]).max()
+    assert exact <= mass_rate * (1 + 1e-12) and mass_rate < 1.15 * exact
+    assert gershgorin > 1.25 * exact
+
+
+def test_a_hub_node_is_bounded_by_its_element_not_its_valence():
+    """A lip node joined to 14 border nodes (as a fan fill leaves one) under heavy damping:
+    Gershgorin's row sum 2 x 14 k sets a step 1.8 x shorter than the exact overdamped limit;
+    the element bound stays within 10 % of the exact one and is never above it."""
+    n = 14
+    angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    rim = np.column_stack([np.cos(angles), np.sin(angles), np.zeros(n)]) * 0.001
+    pts = np.vstack([[0.0, 0.0, 0.0], rim, 2 * rim])
+    fan = [(0, 1 + i, 1 + (i + 1) % n) for i in range(n)]
+    ring = [t for i in range(n) for t in ((1 + i, 1 + n + i, 1 + n + (i + 1) % n),
+                                          (1 + i, 1 + n + (i + 1) % n, 1 + (i + 1) % n))]
+    tris = np.array(fan + ring)
+    edges = np.unique(np.sort(np.vstack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0)
+    model = TissueModel.from_arrays(pts, edges, 2e-6, pinned=np.arange(1 + n, 1 + 2 * n), triangles=tris,
+                                    stiffness=160.0, damping=3.0)
+    L, free = scalar_stiffness(model)
+    exact = 2.0 / generalized_max(L, model.damping[free])  # overdamped: 2 / lambda_max(D^-1 K)
+    limit = stable_time_step(model).step
+    gershgorin = 2.0 * 3.0 / node_stiffness_sums(model).max()
+    assert limit <= exact * (1 + 1e-9) * (1 + 1e-3)  # the mass adds a little above 2 D / lambda
+    assert limit > 0.9 * exact and exact > 1.5 * gershgorin
 
 
 # ------------------------------------------------------------------ XPBD's explicit part

@@ -135,7 +135,7 @@ class Simulator:
         self.device_model = DeviceModel(self.model, self.device)
         self.solver = self._make_solver()
         # per-integrator limit: infinite for the unconditionally stable integrators
-        self.step_limit: StepLimit = INTEGRATORS[self.integrator].step_limit(self.model, self.positions)
+        self.step_limit: StepLimit = INTEGRATORS[self.integrator].step_limit(self.model)
         self._choose_steps()
 
     def _make_solver(self):
@@ -357,7 +357,7 @@ class Simulator:
 
     def update_step_limit(self, limit: StepLimit | None = None) -> None:
         """Set the stable step (recomputed from the model if not given) and the substeps."""
-        self.step_limit = limit or INTEGRATORS[self.integrator].step_limit(self.model, self.positions)
+        self.step_limit = limit or INTEGRATORS[self.integrator].step_limit(self.model)
         self._choose_steps()
 
     def check_finite(self) -> None:

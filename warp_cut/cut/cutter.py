@@ -40,7 +40,7 @@ from ..mesh.checks import cuttable_problems
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
 from ..sim.model import TissueModel
-from ..sim.stability import RowSums, StepLimit
+from ..sim.stability import ElementRates, StepLimit
 from ..sim.state import State
 from .classes import NodeClass
 from .incision import Incision
@@ -198,7 +198,7 @@ class Cutter:
             raise InputError("this mesh cannot be cut (a cut needs a manifold, consistently wound "
                              "mesh without duplicate or degenerate triangles): " + "; ".join(problems))
         self.editor = TopologyEditor(model)
-        self.row_sums = RowSums(model)
+        self.element_rates = ElementRates(model)
         lengths = model.rest_lengths
         self.spacing = self.settings.spacing or float(np.median(lengths))
         self.edge_reach = 1.5 * float(lengths.max()) if len(lengths) else self.spacing
@@ -563,9 +563,9 @@ class Cutter:
         for slot in list(report.residual_links) + list(report.carried_links):
             changed.update(int(v) for v in link_pairs[slot])
         changed |= {int(v) for v in report.deleted_nodes}
-        self.row_sums.update(sorted(changed), self.editor, positions)
+        self.element_rates.update(changed, self.editor)
         sim.apply_topology_edit(placed, positions[placed] if len(placed) else np.zeros((0, 3)),
-                                self.row_sums.limit())
+                                self.element_rates.limit())
 
     # ----------------------------------------------------------------- measures
     def incision_width(self, positions: np.ndarray) -> float:

@@ -63,6 +63,7 @@ class EditReport:
     new_nodes: list = field(default_factory=list)
     new_springs: list = field(default_factory=list)
     new_triangles: list = field(default_factory=list)
+    deleted_links: list = field(default_factory=list)
     carried_links: list = field(default_factory=list)
     """Residual links re-made between a surviving node and the node that took a deleted one's place."""
     orphaned_links: list = field(default_factory=list)
@@ -202,6 +203,7 @@ class TopologyEditor:
             self.node_links[j].discard(slot)
             self._touched.update((i, j))  # their stable-step rows change
             table.kill([slot])
+            self.report.deleted_links.append(slot)
 
     def delete_nodes(self, nodes) -> None:
         """Delete nodes with their springs (no residual links: an end is gone), triangles and links."""

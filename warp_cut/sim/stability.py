@@ -1,27 +1,40 @@
-"""The stable explicit step, computed from masses, stiffnesses and node valence.
+"""The stable explicit step, bounded element by element.
 
-For semi-implicit Euler the linear stability limit of an undamped system is
-``h < 2 / omega_max`` with ``omega_max^2 = lambda_max(M^-1 K)``. Gershgorin's theorem bounds
-``lambda_max <= max_i R_i / m_i`` with the row sum ``R_i = sum_j k_ij g_ij (1 + [j free])``:
-each spring at node i counts once on the diagonal and once more off it unless its other end is
-pinned; ``g = max(1, |1 - L0 / L|)`` is the geometric factor (the transverse stiffness of a
-stretched or compressed spring), a residual link counts with its largest stiffness F / eps, and
-the foundation (a support of stiffness k_f A_i at node i, ``warp_cut.sim.model``) adds k_f A_i
-on the diagonal (once: it joins the node to its fixed rest position).
-With every neighbour free, R_i = 2 S_i (S_i the stiffness sum at node i), so
+Semi-implicit Euler with implicit damping, ``v' = (M + h D)^-1 (M v - h K x)``, ``x' = x + h v'``,
+has eigenvalues mu that solve, for the eigenvector x, the scalar equation of one damped
+oscillator with m = x^H M x, d = x^H D x, k = x^H K x. That oscillator is stable while
 
-    h_undamped = min_i sqrt(2 m_i / S_i)
+    h <= d / k + sqrt((d / k)^2 + 4 m / k),
 
-is always safe; springs to pinned nodes only make it larger. With the implicit damping of the integrator
-(c = D / m), a mode of frequency omega is stable for ``h < (c + sqrt(c^2 + 4 omega^2)) / omega^2``,
-which grows with c. The damped limit takes this per node, with c_i = D_i / m_i and
-omega_i^2 = R_i / m_i, and the smallest over the nodes:
+which grows with m / k and with d / k. Both are bounded below over all x by
+1 / Lambda_M and 1 / Lambda_D, with Lambda_M >= lambda_max(M^-1 K) and
+Lambda_D >= lambda_max(D^-1 K), so
 
-    h_damped = min_i (D_i + sqrt(D_i^2 + 4 R_i m_i)) / R_i
+    h_damped = a + sqrt(a^2 + 4 / Lambda_M),  a = 1 / Lambda_D,
 
-It is exact for mass-proportional damping and tends to 2 D / R_i for heavily damped light
-nodes, whatever their mass (the step of the overdamped motion x' = -K x / D); the tests check
-it against the eigenvalues of the iteration.
+is stable for any damping (not only mass-proportional), and h_undamped = 2 / sqrt(Lambda_M).
+
+The bounds come from the elements (Irons' element eigenvalue theorem): write K = sum_e K_e and
+split every node's mass (or damping) among its elements, M = sum_e M_e; then
+x^T K x = sum_e x^T K_e x <= max_e lambda_max(M_e^-1 K_e) x^T M x. The elements are the
+triangles (a spring on two triangles gives each half its stiffness), springs on no triangle and
+residual links (two-node elements, a link with its largest stiffness F / eps), and the
+foundation (a one-node element of stiffness k_f A_i, ``warp_cut.sim.model``). A node's mass
+goes to its elements in proportion to the stiffness it has in each (S_i is the sum), so a
+two-node element rates S_a / m_a + S_b / m_b and the regular triangle lattice rates exactly its
+largest frequency (9 k / m, where Gershgorin's row sums give 12 k / m). A pinned node does not
+move: its rows are left out (a principal submatrix has no larger eigenvalue).
+
+The limit does not depend on where the nodes are. A spring of length L has the tangent stiffness
+k [u u^T + (1 - L0 / L)(I - u u^T)]: along itself k, across it k (1 - L0 / L), which is below k
+when stretched and negative when compressed. A negative stiffness is a buckling mode: it grows
+at its physical rate whatever the step (the iteration's eigenvalue is real and above 1, no
+oscillation), so it sets no step. Bounding each spring's positive part by k I makes K no larger
+than the scalar graph Laplacian (times the 3 x 3 identity) that the elements bound; the tests
+check this on a compressed sheet against the eigenvalues of the iteration.
+
+``node_stiffness_sums`` keeps Gershgorin's row sums for XPBD's explicit part
+(``warp_cut.solvers.xpbd``).
 """
 
 from __future__ import annotations
@@ -30,8 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "node_step_limits",
-           "spring_geometric_factor", "foundation_rows", "RowSums"]
+__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "foundation_rows", "ElementRates"]
 
 
 @dataclass(frozen=True)
@@ -39,37 +51,15 @@ class StepLimit:
     """Result of ``stable_time_step``.
 
     step: the stable step [s] (damped if requested), inf when nothing can oscillate.
-    undamped_step: min_i sqrt(2 m_i / S_i) [s].
-    node: the node with the largest Gershgorin frequency (-1 if none).
-    omega_max: that frequency bound [rad/s].
+    undamped_step: 2 / omega_max [s].
+    node: a node of the element that limits the step most (-1 if none).
+    omega_max: the bound sqrt(Lambda_M) on the largest frequency [rad/s].
     """
 
     step: float
     undamped_step: float
     node: int
     omega_max: float
-
-
-def spring_geometric_factor(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.ndarray:
-    """max(1, |1 - L0 / L|) per spring: the transverse stiffness relative to K."""
-    L = np.maximum(np.asarray(lengths, dtype=np.float64), 1e-12)
-    return np.maximum(1.0, np.abs(1.0 - np.asarray(rest_lengths) / L))
-
-
-def _add_rows(sums, pairs, k, free, positions=None, rest=None, rows=None) -> None:
-    """Add the Gershgorin contributions of springs or links ``pairs`` (e, 2) of stiffness ``k``
-    (e,) to ``sums``: k g (1 + [other end free]) at each end (g, the geometric factor, when
-    ``rest`` lengths are given; ``positions`` indexable by a node list). ``rows``: a (node_count,)
-    mask of the rows to add to (default all)."""
-    if not len(pairs):
-        return
-    i, j = pairs[:, 0], pairs[:, 1]
-    if rest is not None:
-        lengths = np.linalg.norm(positions[j] - positions[i], axis=1)
-        k = k * spring_geometric_factor(lengths, rest)
-    for a, b in ((i, j), (j, i)):
-        keep = slice(None) if rows is None else rows[a]
-        np.add.at(sums, a[keep], (k * (1.0 + free[b]))[keep])
 
 
 def foundation_rows(model, nodes=slice(None)) -> np.ndarray:
@@ -79,101 +69,253 @@ def foundation_rows(model, nodes=slice(None)) -> np.ndarray:
     return k_f * masses / model.material.areal_density if k_f > 0 else np.zeros_like(masses)
 
 
-def node_stiffness_sums(model, positions: np.ndarray | None = None) -> np.ndarray:
-    """Gershgorin row sums R_i [N/m], (node_count,): springs and residual links at each node,
-    counted twice unless the other end is pinned, and the foundation's k_f A_i (see the module
-    docstring)."""
-    x = model.points if positions is None else np.asarray(positions, dtype=np.float64)
+def _link_stiffness(model, slots) -> np.ndarray:
+    """A residual link's largest stiffness F / eps [N/m] at link ``slots``."""
+    links = model.link_table
+    return links.column("force")[slots] / np.maximum(links.column("smoothing")[slots], 1e-30)
+
+
+def node_stiffness_sums(model) -> np.ndarray:
+    """Gershgorin row sums R_i [N/m], (node_count,): every spring and residual link at node i,
+    counted twice unless its other end is pinned, and the foundation's k_f A_i once."""
     sums = foundation_rows(model).astype(np.float64)
     free = (~model.pinned).astype(np.float64)
-    _add_rows(sums, model.springs, model.stiffness, free, x, model.rest_lengths)
-    _add_rows(sums, model.links, model.link_force / np.maximum(model.link_smoothing, 1e-30), free)
+    links = model.link_table.live_slots()
+    for pairs, k in ((model.springs, model.stiffness), (model.links, _link_stiffness(model, links))):
+        for a, b in ((pairs[:, 0], pairs[:, 1]), (pairs[:, 1], pairs[:, 0])):
+            np.add.at(sums, a, k * (1.0 + free[b]))
     return sums
 
 
-def node_step_limits(R, m, D) -> tuple[np.ndarray, np.ndarray]:
-    """(damped, undamped) stable steps [s] per node from row sums R [N/m] > 0, masses m [kg]
-    and damping D [N s/m] (see the module docstring)."""
-    return (D + np.sqrt(D * D + 4.0 * R * m)) / R, 2.0 * np.sqrt(m / R)
+def _damped_step(mass_rate: float, damping_rate: float) -> float:
+    """a + sqrt(a^2 + 4 / Lambda_M) [s] with a = 1 / Lambda_D (a = 0 where some free node has
+    no damping: Lambda_D is infinite)."""
+    a = 1.0 / damping_rate if 0.0 < damping_rate < np.inf else 0.0
+    return a + float(np.sqrt(a * a + 4.0 / mass_rate))
 
 
-def stable_time_step(model, positions: np.ndarray | None = None, *,
-                     include_damping: bool = True, sums: np.ndarray | None = None) -> StepLimit:
-    """The stable step of semi-implicit Euler for ``model`` at ``positions`` (default: rest).
-    ``sums``: precomputed Gershgorin row sums (e.g. kept up to date by a RowSums)."""
-    free = ~model.pinned & model.active
-    sums = node_stiffness_sums(model, positions) if sums is None else sums
-    candidates = free & (sums > 0)
-    if not np.any(candidates):
-        return StepLimit(float("inf"), float("inf"), -1, 0.0)
-    omega2 = np.zeros(model.node_count)
-    omega2[candidates] = sums[candidates] / model.masses[candidates]
-    node = int(np.argmax(omega2))
-    w2 = float(omega2[node])
-    undamped = 2.0 / np.sqrt(w2)
-    if not include_damping:
-        return StepLimit(undamped, undamped, node, float(np.sqrt(w2)))
-    per_node, _ = node_step_limits(sums[candidates], model.masses[candidates],
-                                   model.damping[candidates])
-    k = int(np.argmin(per_node))
-    node = int(np.flatnonzero(candidates)[k])
-    return StepLimit(float(per_node[k]), float(undamped), node, float(np.sqrt(w2)))
+def _pair_rates(sums, weights, ends, free) -> np.ndarray:
+    """lambda_max of two-node elements with ``ends`` (e, 2): S_a / w_a + S_b / w_b over their
+    free ends (inf where a free end with stiffness has no weight)."""
+    return _node_ratio(sums, weights, ends, free).sum(axis=1)
 
 
-class RowSums:
-    """Gershgorin row sums and per-node stable steps kept up to date across topology edits at
-    the cost of the nodes an edit touches (``node_stiffness_sums`` is O(springs)); the global
-    limit is then one reduction over the per-node steps."""
+def _node_ratio(sums, weights, nodes, free) -> np.ndarray:
+    """S_i / w_i at ``nodes`` (any shape): 0 where pinned or without stiffness, inf where
+    weightless."""
+    s, w = sums[nodes], weights[nodes]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(w > 0, s / np.where(w > 0, w, 1.0), np.inf)
+    return np.where(free[nodes] & (s > 0), ratio, 0.0)
 
-    def __init__(self, model, positions: np.ndarray | None = None):
+
+_TRIANGLE_EDGES = ((0, 1), (1, 2), (2, 0))
+
+
+def _triangle_rates(weights, corners, edge_k, sums, free) -> np.ndarray:
+    """lambda_max(W_T^-1 L_T) of triangles with ``corners`` (t, 3) and edge stiffnesses
+    ``edge_k`` (t, 3) (edges 01, 12, 20), a node weight (mass or damping) split in proportion
+    to the node's stiffness in the triangle out of ``sums``; pinned corners left out. inf where
+    a free corner with stiffness has no weight."""
+    t = len(corners)
+    if not t:
+        return np.zeros(0)
+    own = np.stack([edge_k[:, 0] + edge_k[:, 2], edge_k[:, 0] + edge_k[:, 1],
+                    edge_k[:, 1] + edge_k[:, 2]], axis=1)
+    moving = free[corners] & (own > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = weights[corners] * own / sums[corners]
+    weightless = (moving & ~(share > 0)).any(axis=1)
+    share = np.where(moving & (share > 0), share, 1.0)
+    L = np.zeros((t, 3, 3))
+    for e, (a, b) in enumerate(_TRIANGLE_EDGES):
+        L[:, a, a] += edge_k[:, e]
+        L[:, b, b] += edge_k[:, e]
+        L[:, a, b] -= edge_k[:, e]
+        L[:, b, a] -= edge_k[:, e]
+    scale = np.where(moving, 1.0 / np.sqrt(share), 0.0)
+    rates = np.linalg.eigvalsh(L * scale[:, :, None] * scale[:, None, :])[:, -1]
+    return np.where(weightless, np.inf, rates)
+
+
+def _edge_keys(pairs: np.ndarray, count: int) -> np.ndarray:
+    """One integer per undirected node pair, (e,)."""
+    lo, hi = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
+    return lo.astype(np.int64) * count + hi
+
+
+class ElementRates:
+    """The element bounds Lambda_M and Lambda_D (module docstring), kept per element so that
+    after a topology edit only the elements at the nodes it touched are rated again; the limit
+    is then one reduction over the elements.
+
+    Arrays over slots: ``sums`` (nodes: S_i [N/m]), ``on_triangles`` (springs: live triangles
+    on the spring), and per element kind a (mass rate, damping rate) pair [1/s^2, 1/s] over
+    the slots of its table: ``triangles``, ``springs`` (springs on no triangle), ``links``,
+    ``foundation`` (nodes).
+    """
+
+    KINDS = ("triangles", "springs", "links", "foundation")
+
+    def __init__(self, model):
         self.model = model
-        self.sums = node_stiffness_sums(model, positions)
-        self.damped = np.full(model.node_count, np.inf)
-        self.undamped = np.full(model.node_count, np.inf)
-        self._node_steps(np.arange(model.node_count))
+        self.sums = np.zeros(0)
+        self.on_triangles = np.zeros(0, dtype=np.int64)
+        self.rates = {kind: (np.zeros(0), np.zeros(0)) for kind in self.KINDS}
+        nodes = model.node_table.live_slots()
+        self._rate(nodes, model.triangle_table.live_slots(), model.spring_table.live_slots(),
+                   model.spring_table.live_slots(), model.link_table.live_slots())
 
-    def _node_steps(self, nodes: np.ndarray) -> None:
+    # ------------------------------------------------------------------ updates
+    def update(self, nodes, editor) -> None:
+        """Rate again the elements at ``nodes`` (node slots whose springs, links, triangles or
+        mass changed), using the editor's adjacency, and drop those its report deleted."""
+        report = editor.report
+        for kind, dead in (("triangles", report.deleted_triangles), ("springs", report.deleted_springs),
+                           ("links", report.deleted_links), ("foundation", report.deleted_nodes)):
+            for rates in self.rates[kind]:
+                rates[np.asarray(dead, dtype=np.int64)] = 0.0
+        nodes = np.array(sorted({int(v) for v in nodes}), dtype=np.int64)
+        alive = self.model.node_table.alive_buffer()
+        nodes = nodes[alive[nodes]] if len(nodes) else nodes
+        tris = sorted({t for v in nodes for t in editor.node_triangles[v]})
+        corners = self.model.triangle_table.column("corners")[tris] if tris else np.zeros((0, 3), int)
+        near = set(nodes.tolist()) | set(corners.ravel().tolist())
+        springs_near = sorted({s for v in near for s in editor.node_springs[v]})
+        springs_at = sorted({s for v in nodes for s in editor.node_springs[v]})
+        links_at = sorted({s for v in nodes for s in editor.node_links[v]})
+        self._rate(nodes, np.array(tris, np.int64), np.array(springs_near, np.int64),
+                   np.array(springs_at, np.int64), np.array(links_at, np.int64))
+
+    def _grow(self) -> None:
+        """Extend the slot arrays to the tables' capacities (which grow geometrically)."""
         model = self.model
-        R = self.sums[nodes]
-        m = model.masses[nodes]
-        D = model.damping[nodes]
-        ok = model.active[nodes] & ~model.pinned[nodes] & (R > 0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            damped, undamped = node_step_limits(R, m, D)
-        self.damped[nodes] = np.where(ok, damped, np.inf)
-        self.undamped[nodes] = np.where(ok, undamped, np.inf)
 
-    def limit(self) -> StepLimit:
-        """The current StepLimit (as ``stable_time_step`` would compute it)."""
-        if not np.isfinite(self.damped).any():
-            return StepLimit(float("inf"), float("inf"), -1, 0.0)
-        node = int(np.argmin(self.damped))
-        k = int(np.argmin(self.undamped))
-        return StepLimit(float(self.damped[node]), float(self.undamped[k]), k,
-                         float(2.0 / self.undamped[k]))
+        def grown(values, count, fill=0):
+            extra = count - len(values)
+            return values if extra <= 0 else np.concatenate([values, np.full(extra, fill, values.dtype)])
 
-    def update(self, nodes, editor, positions) -> None:
-        """Recompute the rows of ``nodes`` from the editor's adjacency; ``positions`` is
-        indexable by node ([m]) for the geometric factor."""
+        self.sums = grown(self.sums, model.node_table.capacity)
+        self.on_triangles = grown(self.on_triangles, model.spring_table.capacity)
+        for kind, table in self.tables().items():
+            self.rates[kind] = tuple(grown(r, table.capacity) for r in self.rates[kind])
+
+    def _rate(self, nodes, tris, springs_near, springs_at, links_at) -> None:
+        """Node sums at ``nodes``, then the rates of every element at them: ``tris`` (all live
+        triangles at ``nodes``), ``springs_at`` / ``links_at`` (at ``nodes``); ``springs_near``
+        holds every spring at a corner of ``tris`` (to find their edges)."""
+        self._grow()
+        self._node_sums(nodes, springs_at, links_at)
+        self._count_triangles(tris, springs_near, springs_at)
         model = self.model
-        grow = model.node_count - len(self.sums)
-        if grow > 0:
-            self.sums = np.concatenate([self.sums, np.zeros(grow)])
-            self.damped = np.concatenate([self.damped, np.full(grow, np.inf)])
-            self.undamped = np.concatenate([self.undamped, np.full(grow, np.inf)])
-        nodes = np.asarray(sorted(nodes), dtype=np.int64)
+        free = model.node_table.alive & ~model.pinned
+        edge_k = self._triangle_edge_stiffness(tris, springs_near)
+        corners = model.triangle_table.column("corners")[tris]
+        alone = springs_at[self.on_triangles[springs_at] == 0]
+        alone_pairs = model.spring_table.column("pairs")[alone]
+        link_pairs = model.link_table.column("pairs")[links_at]
+        supported = foundation_rows(model, nodes) > 0
+        for w, weights in enumerate((model.masses, model.damping)):
+            rates = {kind: self.rates[kind][w] for kind in self.KINDS}
+            rates["triangles"][tris] = _triangle_rates(weights, corners, edge_k, self.sums, free)
+            rates["springs"][springs_at] = 0.0
+            rates["springs"][alone] = _pair_rates(self.sums, weights, alone_pairs, free)
+            rates["links"][links_at] = _pair_rates(self.sums, weights, link_pairs, free)
+            rates["foundation"][nodes] = np.where(supported, _node_ratio(self.sums, weights, nodes, free), 0.0)
+
+    def _node_sums(self, nodes, springs_at, links_at) -> None:
+        """S_i [N/m] at ``nodes``: their springs, residual links and foundation."""
+        model = self.model
+        self.sums[nodes] = foundation_rows(model, nodes)
         rows = np.zeros(model.node_count, dtype=bool)
-        rows[nodes] = model.active[nodes]
-        self.sums[nodes] = np.where(rows[nodes], foundation_rows(model, nodes), 0.0)
-        free = (~model.pinned).astype(np.float64)
-        springs, links = model.spring_table, model.link_table
-        s = np.array(sorted({t for v in nodes[rows[nodes]] for t in editor.node_springs[v]}), np.int64)
-        if len(s):
-            _add_rows(self.sums, springs.column("pairs")[s], springs.column("stiffness")[s], free,
-                      positions, springs.column("rest_length")[s], rows)
-        l = np.array(sorted({t for v in nodes[rows[nodes]] for t in editor.node_links[v]}), np.int64)
-        if len(l):
-            _add_rows(self.sums, links.column("pairs")[l],
-                      links.column("force")[l] / links.column("smoothing")[l], free, rows=rows)
-        if len(nodes):
-            self._node_steps(nodes)
+        rows[nodes] = True
+        for pairs, k in ((model.spring_table.column("pairs")[springs_at],
+                          model.spring_table.column("stiffness")[springs_at]),
+                         (model.link_table.column("pairs")[links_at], _link_stiffness(model, links_at))):
+            for end in (pairs[:, 0], pairs[:, 1]):
+                np.add.at(self.sums, end[rows[end]], k[rows[end]])
+
+    def _spring_slots(self, edges, springs_near) -> np.ndarray:
+        """Spring slot of each node pair in ``edges`` (e, 2) among ``springs_near`` (-1 if none)."""
+        if not len(springs_near):
+            return np.full(len(edges), -1, dtype=np.int64)
+        n = self.model.node_count
+        keys = _edge_keys(self.model.spring_table.column("pairs")[springs_near], n)
+        order = np.argsort(keys)
+        keys, slots = keys[order], springs_near[order]
+        wanted = _edge_keys(edges, n)
+        at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
+        return np.where(keys[at] == wanted, slots[at], -1)
+
+    def _count_triangles(self, tris, springs_near, springs_at) -> None:
+        """Live triangles on each spring of ``springs_at`` (all of theirs are among ``tris``)."""
+        corners = self.model.triangle_table.column("corners")[tris]
+        edges = np.concatenate([corners[:, [a, b]] for a, b in _TRIANGLE_EDGES])
+        slots = self._spring_slots(edges, springs_near)
+        at = np.zeros(len(self.on_triangles), dtype=bool)
+        at[springs_at] = True
+        self.on_triangles[springs_at] = 0
+        hit = slots[slots >= 0]
+        np.add.at(self.on_triangles, hit[at[hit]], 1)
+
+    def _triangle_edge_stiffness(self, tris, springs_near) -> np.ndarray:
+        """(t, 3) stiffness each triangle of ``tris`` gets of its edges' springs (a spring's
+        stiffness split among its triangles; 0 for an edge without a spring)."""
+        corners = self.model.triangle_table.column("corners")[tris]
+        t = len(tris)
+        edges = np.concatenate([corners[:, [a, b]] for a, b in _TRIANGLE_EDGES])
+        slots = self._spring_slots(edges, springs_near).reshape(3, t).T
+        k = self.model.spring_table.column("stiffness")
+        safe = np.maximum(slots, 0)
+        return np.where(slots >= 0, k[safe] / np.maximum(self.on_triangles[safe], 1), 0.0)
+
+    # ------------------------------------------------------------------ limit
+    def tables(self) -> dict:
+        """The slot table of each element kind."""
+        model = self.model
+        return {"triangles": model.triangle_table, "springs": model.spring_table,
+                "links": model.link_table, "foundation": model.node_table}
+
+    def bounds(self) -> tuple[tuple, tuple]:
+        """((Lambda_M [1/s^2], element), (Lambda_D [1/s], element)) over the live elements, each
+        element a (kind, slot) pair (None when no element is rated above 0)."""
+        found = []
+        for w in (0, 1):
+            best, where = 0.0, None
+            for kind, pair in self.rates.items():
+                rates = pair[w]  # 0 in dead and spare slots
+                top = int(np.argmax(rates)) if len(rates) else 0
+                if len(rates) and rates[top] > best:
+                    best, where = float(rates[top]), (kind, top)
+            found.append((best, where))
+        return found[0], found[1]
+
+    def limit(self, include_damping: bool = True) -> StepLimit:
+        """The current StepLimit (as ``stable_time_step`` would compute it)."""
+        (mass_rate, mass_element), (damping_rate, damping_element) = self.bounds()
+        if mass_rate <= 0.0:
+            return StepLimit(float("inf"), float("inf"), -1, 0.0)
+        undamped = 2.0 / np.sqrt(mass_rate)
+        if not include_damping:
+            return StepLimit(float(undamped), float(undamped), self._node_of(*mass_element), float(np.sqrt(mass_rate)))
+        step = _damped_step(mass_rate, damping_rate)
+        damping_binds = np.isfinite(damping_rate) and damping_rate * damping_rate * 4.0 < mass_rate
+        limiting = damping_element if damping_binds else mass_element
+        return StepLimit(step, float(undamped), self._node_of(*limiting), float(np.sqrt(mass_rate)))
+
+    def _node_of(self, kind: str, slot: int) -> int:
+        """A free node of element ``slot`` of ``kind``: the one with the largest S_i / m_i."""
+        model = self.model
+        if kind == "foundation":
+            return slot
+        table = {"triangles": (model.triangle_table, "corners"), "springs": (model.spring_table, "pairs"),
+                 "links": (model.link_table, "pairs")}[kind]
+        nodes = np.asarray(table[0].column(table[1])[slot], dtype=np.int64)
+        nodes = nodes[~model.pinned[nodes]] if (~model.pinned[nodes]).any() else nodes
+        return int(nodes[np.argmax(self.sums[nodes] / model.masses[nodes])])
+
+
+def stable_time_step(model, *, include_damping: bool = True) -> StepLimit:
+    """The stable step of semi-implicit Euler for ``model`` (any node positions, see the module
+    docstring)."""
+    return ElementRates(model).limit(include_damping)

@@ -18,7 +18,7 @@ The solver contract (the Simulator relies on it):
 * ``topology_changed()`` after the device arrays were edited in place or reallocated: the
   solver drops its recorded launches and re-derives what it keeps (spring order, valences);
   ``prepare(state_in, state_out, h)`` records the launches ahead of the next ``step``;
-* ``step_limit(model, positions)`` (class method): the StepLimit the automatic step uses.
+* ``step_limit(model)`` (class method): the StepLimit the automatic step uses.
 
 Recorded launches depend on the model's sizes (``_extent``: by default its used-slot counts, so
 an edit records new launches; the semi-implicit solver spans the arrays' capacity instead, so an
@@ -100,9 +100,9 @@ class SolverBase:
 
     # ------------------------------------------------------------------ contract
     @classmethod
-    def step_limit(cls, model, positions=None) -> StepLimit:
-        """The largest stable substep of this integrator for ``model`` at ``positions``."""
-        return stable_time_step(model, positions)
+    def step_limit(cls, model) -> StepLimit:
+        """The largest stable substep of this integrator for ``model`` (wherever its nodes are)."""
+        return stable_time_step(model)
 
     def clear_tool_stats(self) -> None:
         """Zero the tool statistics (before the first substep of a step)."""

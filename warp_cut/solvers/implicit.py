@@ -43,9 +43,9 @@ class ImplicitEulerSolver(SolverBase):
                          collision=collision, replay=replay, max_displacement=max_displacement)
 
     @classmethod
-    def step_limit(cls, model, positions=None) -> StepLimit:
+    def step_limit(cls, model) -> StepLimit:
         """No stability limit (infinite step); node and omega_max as for the explicit step."""
-        explicit = stable_time_step(model, positions)
+        explicit = stable_time_step(model)
         return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
 
     def _derive(self) -> None:

@@ -26,7 +26,7 @@ class XPBDSolver(SolverBase):
     """
 
     @classmethod
-    def step_limit(cls, model, positions=None) -> StepLimit:
+    def step_limit(cls, model) -> StepLimit:
         """The limit of the explicit part alone: residual links and the foundation (infinite
         without either).
 
@@ -35,19 +35,18 @@ class XPBDSolver(SolverBase):
         semi-implicit Euler: see ``xpbd_step_limits``.
         """
         if not model.link_count and model.foundation_stiffness <= 0:
-            explicit = stable_time_step(model, positions)
+            explicit = stable_time_step(model)
             return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
-        links_only = _LinksOnly(model)
-        undamped = stable_time_step(links_only, positions, include_damping=False)
-        sums = node_stiffness_sums(links_only, positions)
+        sums = node_stiffness_sums(_LinksOnly(model))
         rows = ~model.pinned & model.active & (sums > 0)
         if not rows.any():
-            return undamped
+            return StepLimit(math.inf, math.inf, -1, 0.0)
         m = model.masses[rows]
-        steps = xpbd_step_limits(sums[rows] / m, model.damping[rows] / m)
+        omega2 = sums[rows] / m
+        steps = xpbd_step_limits(omega2, model.damping[rows] / m)
         k = int(np.argmin(steps))
-        return StepLimit(float(steps[k]), undamped.undamped_step, int(np.flatnonzero(rows)[k]),
-                         undamped.omega_max)
+        omega_max = float(np.sqrt(omega2.max()))
+        return StepLimit(float(steps[k]), 2.0 / omega_max, int(np.flatnonzero(rows)[k]), omega_max)
 
     def _derive(self) -> None:
         super()._derive()
@@ -115,7 +114,6 @@ class _LinksOnly:
         self._model = model
         self.springs = np.zeros((0, 2), dtype=np.int64)
         self.stiffness = np.zeros(0)
-        self.rest_lengths = np.zeros(0)
 
     def __getattr__(self, name):
         return getattr(self._model, name)
