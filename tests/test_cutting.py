@@ -632,6 +632,35 @@ def test_a_hole_a_thick_tool_leaves_at_the_stroke_end_is_closed_over():
     assert result.coverage >= 0.75  # 0.77: the closed-over end stays closed (0.85 with the hole open)
 
 
+def test_a_thick_tool_crossing_an_earlier_opening_stays_one_incision():
+    """Three strokes of thick tools (r 3.6-5.2 mm on a 2.9 mm grid, gravity and the foundation
+    on): the third, a line, crosses the wide opening the first two left. While it is over the
+    opening, its own hole has no lips yet, so no skin surrounds its axis and no crossing is
+    found; the tip is still 1.2 mm below the skin, so the incision waits there instead of
+    ending and starting again (it became two incisions)."""
+    surface = flat_grid(0.0479586148771218, 0.002923193205568173)
+    model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=0.030860677508215306))
+    specs = [
+        (strokes.zigzag([-0.0014987067149100572, 0.00883448168789086], 5.472114512167781, 0.01139304397733941,
+                        0.00374454823395368, 0.029307810080878727),
+         31.434355286440386, 0.005178034305449886, 0.00363723029017871, 0.019442849658450164, 0.0418123677495136),
+        (strokes.zigzag([0.010176964066058922, 0.01004671216539704], -2.360217692093031, 0.01230117570396961,
+                        0.005189360818286968, 0.027361463815118815),
+         33.8320394510999, 0.003576730899440541, 0.0018040508577689845, 0.03794298327709725, 0.03521691263450564),
+        (strokes.line([-0.0028115038724116598, 0.005818055531331222], 0.29953961627264175, 0.010425107465018471),
+         53.97118062358926, 0.004236411856100555, 0.001165553567717782, 0.005742747775174831, 0.0422535826347943),
+    ]
+    for path, tilt, radius, depth, speed, tool_length in specs:
+        stroke = strokes.Stroke(surface, path, tilt=math.radians(tilt), radius=radius, depth=depth, speed=speed,
+                                tool_length=tool_length, margin=3e-3)
+        result = run_stroke(sim, stroke, surface)
+        assert result.exception is None, result.traceback
+        assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
+        assert result.incisions == 1
+        assert result.unfilled_holes == 0
+
+
 def s_curve_tool(k: int) -> Tool:
     """Tick k of a scalpel (r 1 mm) leaning back 60 degrees along -x: 200 ticks going 8 mm in,
     then 2 cm/s along y = 8 mm sin(pi x / 2 cm) from x = -2 cm: on the rising part of the

@@ -43,7 +43,7 @@ from ..sim.model import TissueModel
 from ..sim.stability import ElementRates, StepLimit
 from ..sim.state import State
 from .classes import NodeClass
-from .incision import Incision
+from .incision import Incision, closest_on_polyline
 from .measures import coverage, incision_width, lip_deviation
 from .remesh import fill_hole
 from .surface import Crossing, locate_crossing
@@ -244,12 +244,25 @@ class Cutter:
             self._start_where_the_blade_entered(sim, poses)
             return
         crossing = self.crossing(sim, tool)
+        if crossing is None and self._in_own_opening(tool):
+            return  # no skin around the axis yet but the incision's own opening: wait
         if crossing is None or crossing.tip_height > self.exit_margin:
             self.end_incision(sim)  # the tool has left the skin: this incision is complete
         elif crossing.inside and not self.current.retraces(crossing.point, self.current.sweep_radius):
             self.extend_incision(sim, crossing.point, crossing.normal)
         # else: the tip is just above the skin (the skin moves, the tool hovers) or back over
         # the cut: wait
+
+    def _in_own_opening(self, tool: Tool) -> bool:
+        """True if the tool is still in the opening the current incision made: its axis within
+        2 sweep radii + a spacing of the last point cut, its tip no higher above the skin there
+        than ``exit_margin``. A thick tool crossing an earlier wound leaves no skin on one side
+        of its axis until this event's lips are made, so no crossing is found there; the tool
+        has not left the skin for that."""
+        end, normal = self.current.path[-1], self.current.normals[-1]
+        _, _, _, from_axis = closest_on_polyline(end[None], np.stack([tool.p0, tool.p1]))
+        reach = 2.0 * self.current.sweep_radius + self.spacing
+        return bool(from_axis[0] <= reach and float((tool.p0 - end) @ normal) <= self.exit_margin)
 
     def catch_up(self, poses: list[Tool]) -> None:
         """Take the tool poses of steps whose ``after_step`` this cutter did not see (a cutter
