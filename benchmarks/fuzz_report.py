@@ -48,7 +48,7 @@ def _checks(row) -> list[str]:
 def _stats(rows) -> dict:
     ran = _ran(rows)
     latency = [x for r in rows for x in r["_latency"]]
-    cov = [r["coverage"] for r in ran]
+    cov = [r["coverage"] for r in ran if r["coverage"] == r["coverage"]]  # nan: no skin under the trace
     return {
         "strokes": len(ran), "events": sum(r["events"] for r in rows),
         "violating": sum(any(c not in FOLD_CHECKS + (WOUND_WRONG,) for c in _checks(r)) for r in ran),
@@ -60,6 +60,7 @@ def _stats(rows) -> dict:
         "none": sum(r["incisions"] == 0 for r in ran),
         "cov_median": _pct(cov, 50), "cov_min": _pct(cov, 0),
         "covered": sum(c >= COVERED for c in cov),
+        "no_skin": len(ran) - len(cov),
         "slivers": sum(r.get("slivers", 0) > 0 for r in ran),
         "lat_p50": _pct(latency, 50), "lat_p99": _pct(latency, 99), "lat_max": _pct(latency, 100),
     }
@@ -83,7 +84,8 @@ def _totals(rows, wall) -> list[str]:
         f"- strokes with a hole still open after the tool left: **{s['holes']}**",
         f"- strokes split into more than one incision: **{s['split']}**; strokes that made no incision: {s['none']}",
         f"- coverage: median {_fmt(s['cov_median'])}, min {_fmt(s['cov_min'])}; "
-        f"strokes with coverage >= {COVERED}: {s['covered']} of {s['strokes']}",
+        f"strokes with coverage >= {COVERED}: {s['covered']} of {s['strokes']} "
+        f"({s['no_skin']} with no skin under their trace)",
         f"- strokes leaving slivers (< 10 deg) among the triangles they made: {s['slivers']}",
         f"- host latency per cut event: p50 {_fmt(s['lat_p50'])} ms, p99 **{_fmt(s['lat_p99'])} ms**, "
         f"max {_fmt(s['lat_max'])} ms",
@@ -205,7 +207,8 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
     lines = [f"# {title}", "", f"Command: `{command}`", "",
              "Coverage: fraction of the stroke's ideal in-skin trace at which wound-border edges pass "
              "within 0.5 spacing + 0.25 tool radius on both sides (parameter plane, rest positions; "
-             "see warp_cut/verify/stroke_quality.py). Holes: `cutter.unfilled_holes` after the tool left. "
+             "samples over an opening earlier strokes made are left out, a stroke whose whole trace is over one "
+             "has none; see warp_cut/verify/stroke_quality.py). Holes: `cutter.unfilled_holes` after the tool left. "
              "Split: the stroke started more than one incision. Latency: host time of each cut event "
              "(`sim.cutter.latency_ms`, all stages) on the machine that ran the report; other load on it "
              "inflates the tail.", "", "## Totals", ""]

@@ -20,7 +20,7 @@ import warp_cut as wc
 from warp_cut.mesh import surfaces as S
 from warp_cut.sim import strokes as K
 from warp_cut.verify.stroke_check import coverage_tolerance
-from warp_cut.verify.stroke_quality import coverage, original_border, wound_edges
+from warp_cut.verify.stroke_quality import _over_skin, coverage, original_border, skin_at_rest, wound_edges
 
 H = 0.002
 
@@ -171,6 +171,29 @@ def test_coverage_on_a_known_cut(straight_cut, start, length, want, tol):
     assert len(wound) > 0
     got = coverage(stroke_on(surf, start, length), surf, model.points, wound, coverage_tolerance(H, 0.001))
     assert got == pytest.approx(want, abs=tol)
+
+
+def test_coverage_leaves_out_the_trace_over_an_opening(straight_cut):
+    """With the skin at the stroke's start given, a trace along the finished cut (over its slit:
+    no triangle lies between the lips at rest) has no skin under it (nan); one beside the cut
+    is all over skin and counts as before; one crossing the cut counts its samples over skin
+    only (none of them open)."""
+    surf, model, border = straight_cut
+    wound, tol = wound_edges(model, border), coverage_tolerance(H, 0.001)
+    skin = skin_at_rest(model, surf)
+    assert np.isnan(coverage(stroke_on(surf, [-0.005, 0.0007], 0.010), surf, model.points, wound, tol, skin))
+    beside = stroke_on(surf, [-0.006, 0.0047], 0.012)
+    assert coverage(beside, surf, model.points, wound, tol, skin) == coverage(beside, surf, model.points, wound, tol)
+    across = K.Stroke(surf, K.line([0.0, -0.004], np.pi / 2, 0.010), tilt=1.0, radius=0.001, depth=0.002, speed=0.01)
+    assert coverage(across, surf, model.points, wound, tol, skin) == 0.0
+
+
+def test_points_over_skin():
+    """Inside, on an edge and on a corner of a triangle count; beyond it, and inside a second
+    triangle wound the other way, as expected."""
+    skin = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], [[2.0, 0.0], [2.0, 1.0], [3.0, 0.0]]])
+    points = np.array([[0.2, 0.2], [0.5, 0.5], [0.0, 0.0], [0.6, 0.6], [2.2, 0.2], [1.5, 0.2], [-0.1, 0.5]])
+    np.testing.assert_array_equal(_over_skin(points, skin), [True, True, True, False, True, False, False])
 
 
 def test_uncut_tissue_has_no_wound():

@@ -23,6 +23,7 @@ from .stroke_quality import (
     lip_deviation,
     new_slivers,
     original_border,
+    skin_at_rest,
     wound_edges,
 )
 from .validity import cut_problems
@@ -98,7 +99,7 @@ def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
     mine = cutter.incisions[before["incisions"]:]
     result.unfilled_holes = sum(len(inc.open_chains) for inc in mine)
     tol = coverage_tolerance(surface.spacing, stroke.radius)
-    result.coverage = coverage(stroke, surface, model.points, wound_edges(model, border_keys), tol)
+    result.coverage = coverage(stroke, surface, model.points, wound_edges(model, border_keys), tol, before["skin"])
     result.curve_coverage = curve_coverage(stroke, surface, [np.array(i.path) for i in mine], tol)
     result.lip_deviation_max, result.lip_deviation_median, result.lip_nodes = lip_deviation(
         stroke, model, before["nodes"])
@@ -127,7 +128,7 @@ def run_stroke(sim, stroke, surface, *, border_keys=None, check: bool = True,
         return result
     before = {"incisions": len(cutter.incisions), "nodes": model.node_count,
               "triangles": model.triangle_table.count, "loops": border_loop_count(model),
-              "latency": len(next(iter(cutter.latency_ms.values())))}
+              "latency": len(next(iter(cutter.latency_ms.values()))), "skin": skin_at_rest(model, surface)}
     try:
         _drive(sim, stroke, surface, result, check, settle)
     except Exception as exc:  # recorded with its traceback: one failing case must not stop a fuzz run

@@ -16,6 +16,9 @@ Definitions (the measuring stick for cuts on curved and irregular skin):
   them), so neither sag nor the wound gaping moves the lips away: the question is whether
   the material was separated along the path. ``tol`` = 0.5 spacing + the lip offset
   (0.25 tool radius, ``CutSettings`` default): a lip pair straddles the cut at 0.25 r.
+  Samples over no live triangle when the stroke began (at rest, in the parameter plane: an
+  opening earlier strokes made, e.g. an island of skin three cuts cut out) are left out: the
+  tool passes no skin there. nan if the whole trace is over such openings.
 * curve coverage - the same fraction for "within ``tol`` of the stroke's incision paths"
   (the contact points the Cutter cut along).
 * lip deviation - the 3D distance [m] of the lip nodes the stroke made (at their rest
@@ -34,7 +37,7 @@ from ..cut.classes import NodeClass
 from ..mesh.geometry import triangle_min_angles
 from ..mesh.triangulate import border_loops, boundary_edges
 
-__all__ = ["original_border", "wound_edges", "coverage", "curve_coverage", "lip_deviation",
+__all__ = ["original_border", "wound_edges", "skin_at_rest", "coverage", "curve_coverage", "lip_deviation",
            "new_slivers", "segment_distances", "border_loop_count", "SLIVER_DEG"]
 
 SIDE_FRACTION = 1e-9
@@ -81,10 +84,37 @@ def _trace_samples(stroke, spacing: float):
     return uv, d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
 
 
-def coverage(stroke, surface, rest_points, wound, tol: float) -> float:
+def skin_at_rest(model, surface) -> np.ndarray:
+    """The live triangles at their rest positions in the surface's parameter plane, (t, 3, 2)."""
+    corners = model.triangles
+    return surface.uv_of(model.points[corners.ravel()]).reshape(-1, 3, 2)
+
+
+def _over_skin(uv: np.ndarray, skin: np.ndarray) -> np.ndarray:
+    """Mask of the points ``uv`` (m, 2) inside (or on) any of the triangles ``skin`` (t, 3, 2)."""
+    inside = np.zeros(len(uv), dtype=bool)
+    a, b, c = skin[:, 0], skin[:, 1], skin[:, 2]
+
+    def cross(p, q, r):  # (m, t): z of (q - p) x (r - p) for the points r
+        return ((q - p)[None, :, 0] * (r[:, None, 1] - p[None, :, 1])
+                - (q - p)[None, :, 1] * (r[:, None, 0] - p[None, :, 0]))
+
+    for chunk in np.array_split(np.arange(len(uv)), max(1, len(uv) * len(skin) // 200_000)):
+        s = np.stack([cross(a, b, uv[chunk]), cross(b, c, uv[chunk]), cross(c, a, uv[chunk])])
+        inside[chunk] = (((s >= 0).all(axis=0)) | ((s <= 0).all(axis=0))).any(axis=1)
+    return inside
+
+
+def coverage(stroke, surface, rest_points, wound, tol: float, skin: np.ndarray | None = None) -> float:
     """Fraction of the trace open on both sides within ``tol`` [m] (see the module docstring).
-    rest_points: node rest positions (n, 3) [m]; wound: (e, 2) wound-border node pairs."""
+    rest_points: node rest positions (n, 3) [m]; wound: (e, 2) wound-border node pairs; skin:
+    ``skin_at_rest`` when the stroke began (None: the whole trace counts)."""
     uv, direction = _trace_samples(stroke, surface.spacing)
+    if skin is not None:
+        keep = _over_skin(uv, skin)
+        if not keep.any():
+            return float("nan")
+        uv, direction = uv[keep], direction[keep]
     if not len(wound):
         return 0.0
     ends = surface.uv_of(np.asarray(rest_points)[wound.ravel()]).reshape(-1, 2, 2)
