@@ -23,7 +23,7 @@ from warp_cut.sim.stiffness import material_stiffness
 DURATION = 0.25
 SAMPLE = 0.005
 SPACINGS = (0.004, 0.002, 0.001)
-FACTORS = {  # substep as a multiple of the explicit stable step (Gershgorin estimate)
+FACTORS = {  # substep as a multiple of the explicit stable step (the element bound, sim/stability.py)
     "semi_implicit": (0.25, 0.5, 0.9),
     "implicit_euler": (4.0, 16.0, 64.0),
     "xpbd": (0.5, 1.0, 4.0, 16.0, 64.0),

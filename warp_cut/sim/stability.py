@@ -94,16 +94,17 @@ def _damped_step(mass_rate: float, damping_rate: float) -> float:
     return a + float(np.sqrt(a * a + 4.0 / mass_rate))
 
 
-def _pair_rates(sums, weights, ends, free) -> np.ndarray:
-    """lambda_max of two-node elements with ``ends`` (e, 2): S_a / w_a + S_b / w_b over their
-    free ends (inf where a free end with stiffness has no weight)."""
-    return _node_ratio(sums, weights, ends, free).sum(axis=1)
+def _pair_rates(sums, weights_at, ends, free) -> np.ndarray:
+    """lambda_max of two-node elements with ``ends`` (e, 2), (2, e) for the two weights:
+    S_a / w_a + S_b / w_b over their free ends (inf where a free end with stiffness has no
+    weight)."""
+    return _node_ratio(sums, weights_at, ends, free).sum(axis=-1)
 
 
-def _node_ratio(sums, weights, nodes, free) -> np.ndarray:
-    """S_i / w_i at ``nodes`` (any shape): 0 where pinned or without stiffness, inf where
-    weightless."""
-    s, w = sums[nodes], weights[nodes]
+def _node_ratio(sums, weights_at, nodes, free) -> np.ndarray:
+    """S_i / w_i at ``nodes`` (any shape) for the two weights (mass, damping), shape
+    (2, *nodes.shape): 0 where pinned or without stiffness, inf where weightless."""
+    s, w = sums[nodes], weights_at(nodes)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(w > 0, s / np.where(w > 0, w, 1.0), np.inf)
     return np.where(free[nodes] & (s > 0), ratio, 0.0)
@@ -112,20 +113,20 @@ def _node_ratio(sums, weights, nodes, free) -> np.ndarray:
 _TRIANGLE_EDGES = ((0, 1), (1, 2), (2, 0))
 
 
-def _triangle_rates(weights, corners, edge_k, sums, free) -> np.ndarray:
+def _triangle_rates(weights_at, corners, edge_k, sums, free) -> np.ndarray:
     """lambda_max(W_T^-1 L_T) of triangles with ``corners`` (t, 3) and edge stiffnesses
-    ``edge_k`` (t, 3) (edges 01, 12, 20), a node weight (mass or damping) split in proportion
-    to the node's stiffness in the triangle out of ``sums``; pinned corners left out. inf where
-    a free corner with stiffness has no weight."""
+    ``edge_k`` (t, 3) (edges 01, 12, 20), for the two node weights (mass, damping), shape
+    (2, t): a node's weight split in proportion to its stiffness in the triangle out of
+    ``sums``; pinned corners left out. inf where a free corner with stiffness has no weight."""
     t = len(corners)
     if not t:
-        return np.zeros(0)
+        return np.zeros((2, 0))
     own = np.stack([edge_k[:, 0] + edge_k[:, 2], edge_k[:, 0] + edge_k[:, 1],
                     edge_k[:, 1] + edge_k[:, 2]], axis=1)
     moving = free[corners] & (own > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        share = weights[corners] * own / sums[corners]
-    weightless = (moving & ~(share > 0)).any(axis=1)
+        share = weights_at(corners) * (own / sums[corners])
+    weightless = (moving & ~(share > 0)).any(axis=-1)
     share = np.where(moving & (share > 0), share, 1.0)
     L = np.zeros((t, 3, 3))
     for e, (a, b) in enumerate(_TRIANGLE_EDGES):
@@ -134,7 +135,7 @@ def _triangle_rates(weights, corners, edge_k, sums, free) -> np.ndarray:
         L[:, a, b] -= edge_k[:, e]
         L[:, b, a] -= edge_k[:, e]
     scale = np.where(moving, 1.0 / np.sqrt(share), 0.0)
-    rates = np.linalg.eigvalsh(L * scale[:, :, None] * scale[:, None, :])[:, -1]
+    rates = np.linalg.eigvalsh(L * scale[..., :, None] * scale[..., None, :])[..., -1]
     return np.where(weightless, np.inf, rates)
 
 
@@ -161,7 +162,7 @@ class ElementRates:
         self.model = model
         self.sums = np.zeros(0)
         self.on_triangles = np.zeros(0, dtype=np.int64)
-        self.rates = {kind: (np.zeros(0), np.zeros(0)) for kind in self.KINDS}
+        self.rates = {kind: np.zeros((2, 0)) for kind in self.KINDS}
         nodes = model.node_table.live_slots()
         self._rate(nodes, model.triangle_table.live_slots(), model.spring_table.live_slots(),
                    model.spring_table.live_slots(), model.link_table.live_slots())
@@ -173,8 +174,7 @@ class ElementRates:
         report = editor.report
         for kind, dead in (("triangles", report.deleted_triangles), ("springs", report.deleted_springs),
                            ("links", report.deleted_links), ("foundation", report.deleted_nodes)):
-            for rates in self.rates[kind]:
-                rates[np.asarray(dead, dtype=np.int64)] = 0.0
+            self.rates[kind][:, np.asarray(dead, dtype=np.int64)] = 0.0
         nodes = np.array(sorted({int(v) for v in nodes}), dtype=np.int64)
         alive = self.model.node_table.alive_buffer()
         nodes = nodes[alive[nodes]] if len(nodes) else nodes
@@ -191,14 +191,15 @@ class ElementRates:
         """Extend the slot arrays to the tables' capacities (which grow geometrically)."""
         model = self.model
 
-        def grown(values, count, fill=0):
-            extra = count - len(values)
-            return values if extra <= 0 else np.concatenate([values, np.full(extra, fill, values.dtype)])
+        def grown(values, count):  # zeros appended along the last axis
+            extra = count - values.shape[-1]
+            return values if extra <= 0 else np.concatenate(
+                [values, np.zeros(values.shape[:-1] + (extra,), values.dtype)], axis=-1)
 
         self.sums = grown(self.sums, model.node_table.capacity)
         self.on_triangles = grown(self.on_triangles, model.spring_table.capacity)
         for kind, table in self.tables().items():
-            self.rates[kind] = tuple(grown(r, table.capacity) for r in self.rates[kind])
+            self.rates[kind] = grown(self.rates[kind], table.capacity)
 
     def _rate(self, nodes, tris, springs_near, springs_at, links_at) -> None:
         """Node sums at ``nodes``, then the rates of every element at them: ``tris`` (all live
@@ -215,13 +216,17 @@ class ElementRates:
         alone_pairs = model.spring_table.column("pairs")[alone]
         link_pairs = model.link_table.column("pairs")[links_at]
         supported = foundation_rows(model, nodes) > 0
-        for w, weights in enumerate((model.masses, model.damping)):
-            rates = {kind: self.rates[kind][w] for kind in self.KINDS}
-            rates["triangles"][tris] = _triangle_rates(weights, corners, edge_k, self.sums, free)
-            rates["springs"][springs_at] = 0.0
-            rates["springs"][alone] = _pair_rates(self.sums, weights, alone_pairs, free)
-            rates["links"][links_at] = _pair_rates(self.sums, weights, link_pairs, free)
-            rates["foundation"][nodes] = np.where(supported, _node_ratio(self.sums, weights, nodes, free), 0.0)
+        masses, damping = model.masses, model.damping
+
+        def weights_at(idx):  # (2, *idx.shape): mass [kg] and damping [N s/m]
+            return np.stack([masses[idx], damping[idx]])
+
+        rates = self.rates
+        rates["triangles"][:, tris] = _triangle_rates(weights_at, corners, edge_k, self.sums, free)
+        rates["springs"][:, springs_at] = 0.0
+        rates["springs"][:, alone] = _pair_rates(self.sums, weights_at, alone_pairs, free)
+        rates["links"][:, links_at] = _pair_rates(self.sums, weights_at, link_pairs, free)
+        rates["foundation"][:, nodes] = np.where(supported, _node_ratio(self.sums, weights_at, nodes, free), 0.0)
 
     def _node_sums(self, nodes, springs_at, links_at) -> None:
         """S_i [N/m] at ``nodes``: their springs, residual links and foundation."""
