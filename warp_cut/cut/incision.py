@@ -100,6 +100,10 @@ class Incision:
         self.path = [np.asarray(start_point, dtype=np.float64)]
         self.normals = [_unit(normal)]
         """Unit outward normal of the skin at each path point, shape (3,) each."""
+        self._path_chord = np.zeros(1)
+        """Cumulative chord length [m] of the path at each of its points, shape (len(path),)."""
+        self._normal_array = np.array(self.normals)
+        """The normals as one array, shape (len(path), 3)."""
         self.spacing = float(spacing)
         self.lip_offset = float(lip_offset)
         self.tolerance = float(tolerance)
@@ -150,8 +154,10 @@ class Incision:
         point = np.asarray(point, dtype=np.float64)
         if np.linalg.norm(point - self.path[-1]) < min_step:
             return False
+        self._path_chord = np.append(self._path_chord, self._path_chord[-1] + np.linalg.norm(point - self.path[-1]))
         self.path.append(point)
         self.normals.append(self.normals[-1] if normal is None else _unit(normal))
+        self._normal_array = np.vstack([self._normal_array, self.normals[-1]])
         self.curve = self._refit()
         u = np.linspace(0.0, self.curve.segment_count, _SAMPLES_PER_SEGMENT * self.curve.segment_count + 1)
         self._poly = self.curve.evaluate(u)
@@ -221,10 +227,9 @@ class Incision:
         """Unit outward skin normals (m, 3) at arc lengths u (m,) [m], interpolated between
         the contact points' normals."""
         u = np.atleast_1d(np.asarray(u, dtype=np.float64))
-        normals = np.asarray(self.normals)
+        normals, chord = self._normal_array, self._path_chord
         if len(normals) == 1:
             return np.repeat(normals, len(u), axis=0)
-        chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.asarray(self.path), axis=0), axis=1))])
         s = u * (chord[-1] / self.length) if self.length > 0 else np.zeros_like(u)
         n = np.stack([np.interp(s, chord, normals[:, c]) for c in range(3)], axis=1)
         return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)

@@ -562,6 +562,7 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
     triangles, unfilled, waiting, under_tool = [], [], [], False
     pieces = [piece for chain in chains
               for piece in _split_at_lips(_start_at_slit_start(chain, incision, slots), slots)]
+    slots.projected([v for piece in pieces for v in piece])  # at once: every fill asks of them
     for chain in pieces:
         notch = _notch(editor, chain, slots)
         ordered = _lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain), notch)
