@@ -94,26 +94,26 @@ def _damped_step(mass_rate: float, damping_rate: float) -> float:
     return a + float(np.sqrt(a * a + 4.0 / mass_rate))
 
 
-def _pair_rates(sums, weights_at, ends, free) -> np.ndarray:
+def _pair_rates(sums, weights_at, ends, free_at) -> np.ndarray:
     """lambda_max of two-node elements with ``ends`` (e, 2), (2, e) for the two weights:
     S_a / w_a + S_b / w_b over their free ends (inf where a free end with stiffness has no
     weight)."""
-    return _node_ratio(sums, weights_at, ends, free).sum(axis=-1)
+    return _node_ratio(sums, weights_at, ends, free_at).sum(axis=-1)
 
 
-def _node_ratio(sums, weights_at, nodes, free) -> np.ndarray:
+def _node_ratio(sums, weights_at, nodes, free_at) -> np.ndarray:
     """S_i / w_i at ``nodes`` (any shape) for the two weights (mass, damping), shape
     (2, *nodes.shape): 0 where pinned or without stiffness, inf where weightless."""
     s, w = sums[nodes], weights_at(nodes)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(w > 0, s / np.where(w > 0, w, 1.0), np.inf)
-    return np.where(free[nodes] & (s > 0), ratio, 0.0)
+    return np.where(free_at(nodes) & (s > 0), ratio, 0.0)
 
 
 _TRIANGLE_EDGES = ((0, 1), (1, 2), (2, 0))
 
 
-def _triangle_rates(weights_at, corners, edge_k, sums, free) -> np.ndarray:
+def _triangle_rates(weights_at, corners, edge_k, sums, free_at) -> np.ndarray:
     """lambda_max(W_T^-1 L_T) of triangles with ``corners`` (t, 3) and edge stiffnesses
     ``edge_k`` (t, 3) (edges 01, 12, 20), for the two node weights (mass, damping), shape
     (2, t): a node's weight split in proportion to its stiffness in the triangle out of
@@ -123,7 +123,7 @@ def _triangle_rates(weights_at, corners, edge_k, sums, free) -> np.ndarray:
         return np.zeros((2, 0))
     own = np.stack([edge_k[:, 0] + edge_k[:, 2], edge_k[:, 0] + edge_k[:, 1],
                     edge_k[:, 1] + edge_k[:, 2]], axis=1)
-    moving = free[corners] & (own > 0)
+    moving = free_at(corners) & (own > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         share = weights_at(corners) * (own / sums[corners])
     weightless = (moving & ~(share > 0)).any(axis=-1)
@@ -147,8 +147,9 @@ def _edge_keys(pairs: np.ndarray, count: int) -> np.ndarray:
 
 class ElementRates:
     """The element bounds Lambda_M and Lambda_D (module docstring), kept per element so that
-    after a topology edit only the elements at the nodes it touched are rated again; the limit
-    is then one reduction over the elements.
+    after a topology edit only the elements at the nodes it touched are rated again, and the
+    largest rate of each kind is kept (found again by one pass only when the element that had it
+    is rated again).
 
     Arrays over slots: ``sums`` (nodes: S_i [N/m]), ``on_triangles`` (springs: live triangles
     on the spring), and per element kind a (mass rate, damping rate) pair [1/s^2, 1/s] over
@@ -163,6 +164,8 @@ class ElementRates:
         self.sums = np.zeros(0)
         self.on_triangles = np.zeros(0, dtype=np.int64)
         self.rates = {kind: np.zeros((2, 0)) for kind in self.KINDS}
+        self._top = {kind: [-1, -1] for kind in self.KINDS}
+        """Slot of each kind's largest rate per weight (-1: unknown)."""
         nodes = model.node_table.live_slots()
         self._rate(nodes, model.triangle_table.live_slots(), model.spring_table.live_slots(),
                    model.spring_table.live_slots(), model.link_table.live_slots())
@@ -174,7 +177,7 @@ class ElementRates:
         report = editor.report
         for kind, dead in (("triangles", report.deleted_triangles), ("springs", report.deleted_springs),
                            ("links", report.deleted_links), ("foundation", report.deleted_nodes)):
-            self.rates[kind][:, np.asarray(dead, dtype=np.int64)] = 0.0
+            self._set(kind, dead, 0.0)
         nodes = np.array(sorted({int(v) for v in nodes}), dtype=np.int64)
         alive = self.model.node_table.alive_buffer()
         nodes = nodes[alive[nodes]] if len(nodes) else nodes
@@ -209,7 +212,11 @@ class ElementRates:
         self._node_sums(nodes, springs_at, links_at)
         self._count_triangles(tris, springs_near, springs_at)
         model = self.model
-        free = model.node_table.alive & ~model.pinned
+        table = model.node_table
+
+        def free_at(idx):  # alive and not pinned
+            return table.alive_buffer()[idx] & ~table.buffer("pinned")[idx]
+
         edge_k = self._triangle_edge_stiffness(tris, springs_near)
         corners = model.triangle_table.column("corners")[tris]
         alone = springs_at[self.on_triangles[springs_at] == 0]
@@ -221,24 +228,42 @@ class ElementRates:
         def weights_at(idx):  # (2, *idx.shape): mass [kg] and damping [N s/m]
             return np.stack([masses[idx], damping[idx]])
 
-        rates = self.rates
-        rates["triangles"][:, tris] = _triangle_rates(weights_at, corners, edge_k, self.sums, free)
-        rates["springs"][:, springs_at] = 0.0
-        rates["springs"][:, alone] = _pair_rates(self.sums, weights_at, alone_pairs, free)
-        rates["links"][:, links_at] = _pair_rates(self.sums, weights_at, link_pairs, free)
-        rates["foundation"][:, nodes] = np.where(supported, _node_ratio(self.sums, weights_at, nodes, free), 0.0)
+        self._set("triangles", tris, _triangle_rates(weights_at, corners, edge_k, self.sums, free_at))
+        self._set("springs", springs_at, 0.0)
+        self._set("springs", alone, _pair_rates(self.sums, weights_at, alone_pairs, free_at))
+        self._set("links", links_at, _pair_rates(self.sums, weights_at, link_pairs, free_at))
+        self._set("foundation", nodes, np.where(supported, _node_ratio(self.sums, weights_at, nodes, free_at), 0.0))
+
+    def _set(self, kind: str, slots, values) -> None:
+        """rates[kind][:, slots] = values, keeping each weight's largest rate known: a larger
+        new one takes its place; rewriting the largest one itself makes it unknown (found
+        again by one pass over the kind's slots when asked, ``bounds``)."""
+        slots = np.asarray(slots, dtype=np.int64)
+        rates = self.rates[kind]
+        rates[:, slots] = values
+        if not len(slots):
+            return
+        for w in (0, 1):
+            top = self._top[kind][w]
+            if top < 0:
+                continue  # unknown already
+            if np.any(slots == top):
+                self._top[kind][w] = -1
+                continue
+            k = int(np.argmax(rates[w, slots]))
+            if rates[w, slots[k]] > rates[w, top]:
+                self._top[kind][w] = int(slots[k])
 
     def _node_sums(self, nodes, springs_at, links_at) -> None:
         """S_i [N/m] at ``nodes``: their springs, residual links and foundation."""
         model = self.model
         self.sums[nodes] = foundation_rows(model, nodes)
-        rows = np.zeros(model.node_count, dtype=bool)
-        rows[nodes] = True
         for pairs, k in ((model.spring_table.column("pairs")[springs_at],
                           model.spring_table.column("stiffness")[springs_at]),
                          (model.link_table.column("pairs")[links_at], _link_stiffness(model, links_at))):
             for end in (pairs[:, 0], pairs[:, 1]):
-                np.add.at(self.sums, end[rows[end]], k[rows[end]])
+                mine = np.isin(end, nodes)
+                np.add.at(self.sums, end[mine], k[mine])
 
     def _spring_slots(self, edges, springs_near) -> np.ndarray:
         """Spring slot of each node pair in ``edges`` (e, 2) among ``springs_near`` (-1 if none)."""
@@ -257,11 +282,9 @@ class ElementRates:
         corners = self.model.triangle_table.column("corners")[tris]
         edges = np.concatenate([corners[:, [a, b]] for a, b in _TRIANGLE_EDGES])
         slots = self._spring_slots(edges, springs_near)
-        at = np.zeros(len(self.on_triangles), dtype=bool)
-        at[springs_at] = True
         self.on_triangles[springs_at] = 0
         hit = slots[slots >= 0]
-        np.add.at(self.on_triangles, hit[at[hit]], 1)
+        np.add.at(self.on_triangles, hit[np.isin(hit, springs_at)], 1)
 
     def _triangle_edge_stiffness(self, tris, springs_near) -> np.ndarray:
         """(t, 3) stiffness each triangle of ``tris`` gets of its edges' springs (a spring's
@@ -289,8 +312,12 @@ class ElementRates:
             best, where = 0.0, None
             for kind, pair in self.rates.items():
                 rates = pair[w]  # 0 in dead and spare slots
-                top = int(np.argmax(rates)) if len(rates) else 0
-                if len(rates) and rates[top] > best:
+                if not len(rates):
+                    continue
+                if self._top[kind][w] < 0:
+                    self._top[kind][w] = int(np.argmax(rates))
+                top = self._top[kind][w]
+                if rates[top] > best:
                     best, where = float(rates[top]), (kind, top)
             found.append((best, where))
         return found[0], found[1]
