@@ -661,6 +661,30 @@ def test_a_thick_tool_crossing_an_earlier_opening_stays_one_incision():
         assert result.unfilled_holes == 0
 
 
+def test_a_lip_pushed_across_the_curve_gives_its_station_a_new_lip():
+    """A thick tilted tool (r 3.0 mm on a turned 2.5 mm grid, 68 degrees, zigzag) pushes the
+    left lip of its second station across the curve. Counted as a lip on its own side, it kept
+    the hole ahead of the slit's tip from getting the stations due there (the hole's border
+    ran from it round to the first station's left lip): no lip after the second station, a
+    hole 20 mm long at the end, coverage 0.19. Where such a lip ends a hole whose other end is
+    a lip of the same side, it is taken as tissue where it lies: its station gets a new lip and
+    the cut opens the whole stroke."""
+    surface = flat_grid(0.046358519432367004, 0.0025081214055164476, angle=0.6419714300050896)
+    model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=0.019591422619893557))
+    path = strokes.zigzag([-0.007880503116256083, -0.004513425162780224], 1.1241026628893132, 0.021285099203865235,
+                          0.004491403806158755, 0.028386547405885997)
+    stroke = strokes.Stroke(surface, path, tilt=math.radians(68.48897595123483), radius=0.003045800446927011,
+                            depth=0.0028847832181556786, speed=0.016415276483890354,
+                            tool_length=0.04411799822184638, margin=3e-3)
+    result = run_stroke(sim, stroke, surface)
+    assert result.exception is None, result.traceback
+    assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
+    assert result.incisions == 1
+    assert result.unfilled_holes == 0
+    assert result.coverage >= 0.95
+
+
 def s_curve_tool(k: int) -> Tool:
     """Tick k of a scalpel (r 1 mm) leaning back 60 degrees along -x: 200 ticks going 8 mm in,
     then 2 cm/s along y = 8 mm sin(pi x / 2 cm) from x = -2 cm: on the rising part of the

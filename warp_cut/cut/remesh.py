@@ -267,6 +267,17 @@ _PLACEHOLDER = 1 << 40
 """Lip nodes a fill would make are numbered from here until the fill is accepted."""
 
 
+def _crossed_lips(incision, positions, active) -> set:
+    """Interior-station lip nodes that now lie across the curve, more than the lip offset on
+    the other side (a thick tool pushed them over)."""
+    lips = [(node, side) for node, _, side, station in incision.lip_nodes()
+            if station >= 0 and node >= 0 and active[node]]
+    if not lips:
+        return set()
+    _, now, dist = incision.project(positions[[node for node, _ in lips]])
+    return {node for (node, side), s, d in zip(lips, now, dist) if s != side and d > incision.lip_offset}
+
+
 class _LipSlots:
     """The incision's lip slots during one fill: which exist, their slit coordinates, and lip
     nodes proposed for a chain (placeholders, made real only if its fill is accepted)."""
@@ -274,6 +285,8 @@ class _LipSlots:
     def __init__(self, editor, incision, positions):
         self.editor, self.incision, self.positions = editor, incision, positions
         active = editor.model.active
+        self.crossed = _crossed_lips(incision, positions, active)
+        """Lip nodes across the curve (``_crossed_lips``)."""
         self.slots = [(node if node >= 0 and active[node] else -1, theta, side, station)
                       for node, theta, side, station in incision.lip_nodes()]
         self.theta = {node: theta for node, theta, *_ in self.slots if node >= 0}
@@ -285,6 +298,36 @@ class _LipSlots:
         """(version, the slit's open end u [m]) last computed."""
         self._projected: dict[int, tuple[float, int]] = {}
         """node -> (u [m], side) of nodes projected onto the curve in this fill."""
+        self._released: dict[int, tuple] = {}
+        """node -> (slots, theta) before ``release(node)``."""
+
+    def release(self, node: int) -> None:
+        """Free the slot of lip ``node``: its station takes a new lip, and the node counts as
+        tissue where it lies (its slit coordinate from its position); ``restore`` undoes it."""
+        self._released[node] = (list(self.slots), self.theta.get(node))
+        self.slots = [(-1 if n == node else n, theta, side, station) for n, theta, side, station in self.slots]
+        self.theta.pop(node, None)
+        self._version += 1
+
+    def restore(self, node: int) -> None:
+        """Undo ``release(node)``."""
+        self.slots, theta = self._released.pop(node)
+        if theta is not None:
+            self.theta[node] = theta
+        self._version += 1
+
+    def pushed_over_end(self, chain) -> int | None:
+        """A lip pushed across the curve (``crossed``) at an end of an open ``chain`` whose two
+        ends are lips of one side: the hole reaches past the slit's tip, but the crossed lip,
+        taken as on its own side, bounds its slit coordinates to the stretch between the two
+        (no station due beyond the tip is offered). None if there is none."""
+        if chain[0] == chain[-1] or not self.crossed:
+            return None
+        sides = {n: side for n, _, side, station in self.slots if n >= 0 and station >= 0}
+        ends = (chain[0], chain[-1])
+        if not all(v in sides for v in ends) or sides[ends[0]] != sides[ends[1]]:
+            return None
+        return next((v for v in ends if v in self.crossed), None)
 
     def projected(self, nodes) -> list[tuple[float, int]]:
         """(u [m], side) of each node's closest curve point (projected once per fill: the
@@ -565,24 +608,18 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
     slots.projected([v for piece in pieces for v in piece])  # at once: every fill asks of them
     for chain in pieces:
         notch = _notch(editor, chain, slots)
-        ordered = _lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain), notch)
-        if not ordered and chain[0] != chain[-1]:
-            if incision.open_end:
-                waiting.append(chain)  # open to an opening, no station here yet: kept for later
+        outcome, tris = _fill_releasing_pushed_lip(chain, editor, incision, positions, slots, notch, tool,
+                                                   min_angle_deg, defer_slivers)
+        if outcome == "waiting":
+            waiting.append(chain)  # open to an opening, no station here yet: kept for later
+            continue
+        if outcome == "open":
             continue  # once the tool has gone: a notch open to an opening, no hole
-        lips = slots.propose(ordered, chain, snap=0.5 * incision.spacing)
-        if tool is not None and slots.proposed_inside(tool):
-            slots.discard()
+        if outcome == "under_tool":
             unfilled.append(chain)  # under the tool: filled once it has moved on
             under_tool = True
             continue
-        tris = None
-        for view in _views(incision, positions, chain + lips):
-            tris = _triangulate(chain, lips, editor, view, positions, min_angle_deg, defer_slivers, slots, tool)
-            if tris is not None:
-                break
         if tris is None:
-            slots.discard()
             if notch:
                 incision.reached_border = True
                 continue
@@ -599,6 +636,42 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
     classes = _classify(editor, incision, triangles, positions)
     return {"created": slots.created, "triangles": triangles, "chains": len(chains),
             "unfilled": unfilled, "waiting": waiting, "under_tool": under_tool, **classes}
+
+
+def _fill_releasing_pushed_lip(chain, editor, incision, positions, slots: _LipSlots, notch: bool, tool,
+                               min_angle_deg: float, defer_slivers: bool):
+    """``_fill_chain``, first with a lip pushed across the curve at an end of the chain taken
+    as tissue (``_LipSlots.pushed_over_end``), and as it is if that fill fails."""
+    pushed = slots.pushed_over_end(chain)
+    if pushed is not None:
+        slots.release(pushed)
+        outcome, tris = _fill_chain(chain, editor, incision, positions, slots, notch, tool,
+                                    min_angle_deg, defer_slivers)
+        if outcome != "unfilled":
+            return outcome, tris
+        slots.restore(pushed)
+    return _fill_chain(chain, editor, incision, positions, slots, notch, tool, min_angle_deg, defer_slivers)
+
+
+def _fill_chain(chain, editor, incision, positions, slots: _LipSlots, notch: bool, tool,
+                min_angle_deg: float, defer_slivers: bool):
+    """The fill of one hole border ``chain`` with the lips facing it: ("filled", triangles with
+    proposed lips, to accept), ("unfilled", None: no valid fill), ("under_tool", None: a new lip
+    would lie inside the tool), ("waiting", None: open onto an opening with no station facing
+    it yet, while the tool cuts) or ("open", None: the same once the tool has gone, a notch)."""
+    ordered = _lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain), notch)
+    if not ordered and chain[0] != chain[-1]:
+        return ("waiting" if incision.open_end else "open"), None
+    lips = slots.propose(ordered, chain, snap=0.5 * incision.spacing)
+    if tool is not None and slots.proposed_inside(tool):
+        slots.discard()
+        return "under_tool", None
+    for view in _views(incision, positions, chain + lips):
+        tris = _triangulate(chain, lips, editor, view, positions, min_angle_deg, defer_slivers, slots, tool)
+        if tris is not None:
+            return "filled", tris
+    slots.discard()
+    return "unfilled", None
 
 
 def _close_over(chain, editor, incision, positions, slots: _LipSlots):
@@ -643,7 +716,7 @@ def _notch(editor, chain, slots: _LipSlots) -> bool:
     hole."""
     if chain[0] == chain[-1]:
         return False
-    lips = {s[0] for s in slots.slots if s[0] >= 0}
+    lips = {s[0] for s in slots.slots if s[0] >= 0} | slots.crossed  # a crossed lip still borders the slit
     return any(v not in lips and _on_outer_border(editor, v, lips) for v in (chain[0], chain[-1]))
 
 
