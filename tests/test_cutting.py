@@ -610,6 +610,26 @@ def test_delaunay_disk_stroke_leaves_no_hole():
     assert cut["incisions"] == 1 and cut["unfilled_holes"] == 0, cut
 
 
+def supported_sim(surface, interval: float) -> Simulator:
+    """A cutting Simulator on ``surface`` with gravity and the foundation (k_f 1e6 N/m^3), as
+    the fuzz cases below ran (``benchmarks/fuzz_cut.py``); events every ``interval`` [s]."""
+    model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
+    return Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=interval))
+
+
+def one_valid_incision(sim, surface, path, tilt_deg, radius, depth, speed, tool_length):
+    """Cut ``path`` with a tool of the given tilt [deg], radius, depth [m], speed [m/s] and
+    length [m]; assert no exception, no edit error (folds by the motion aside) and one
+    incision; return the StrokeResult."""
+    stroke = strokes.Stroke(surface, path, tilt=math.radians(tilt_deg), radius=radius, depth=depth, speed=speed,
+                            tool_length=tool_length, margin=3e-3)
+    result = run_stroke(sim, stroke, surface)
+    assert result.exception is None, result.traceback
+    assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
+    assert result.incisions == 1
+    return result
+
+
 def test_a_hole_a_thick_tool_leaves_at_the_stroke_end_is_closed_over():
     """A tool thicker than the spacing (r 2.0 mm on a 1.7 mm grid, tilted 64 degrees, gravity
     and the foundation on) pushes a lip across the curve near the stroke's end: the hole left
@@ -618,16 +638,10 @@ def test_a_hole_a_thick_tool_leaves_at_the_stroke_end_is_closed_over():
     left, the mesh stays valid after every event, one incision, and most of the stroke is
     still opened (coverage 0.77; 0.85 with the hole left open before)."""
     surface = flat_grid(0.0413111842029696, 0.00171044765737931)
-    model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
-    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=0.03310187971208809))
+    sim = supported_sim(surface, 0.03310187971208809)
     path = strokes.line([-0.0111884457216376, 0.0014753994358203404], 5.602684401619392, 0.016273897858153114)
-    stroke = strokes.Stroke(surface, path, tilt=math.radians(63.78196440257604), radius=0.0020073533581260626,
-                            depth=0.002160665425005849, speed=0.008160930801347761,
-                            tool_length=0.048489289974786604, margin=3e-3)
-    result = run_stroke(sim, stroke, surface)
-    assert result.exception is None, result.traceback
-    assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
-    assert result.incisions == 1
+    result = one_valid_incision(sim, surface, path, 63.78196440257604, 0.0020073533581260626, 0.002160665425005849,
+                                0.008160930801347761, 0.048489289974786604)
     assert result.unfilled_holes == 0
     assert result.coverage >= 0.75  # 0.77: the closed-over end stays closed (0.85 with the hole open)
 
@@ -639,8 +653,7 @@ def test_a_thick_tool_crossing_an_earlier_opening_stays_one_incision():
     found; the tip is still 1.2 mm below the skin, so the incision waits there instead of
     ending and starting again (it became two incisions)."""
     surface = flat_grid(0.0479586148771218, 0.002923193205568173)
-    model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
-    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=0.030860677508215306))
+    sim = supported_sim(surface, 0.030860677508215306)
     specs = [
         (strokes.zigzag([-0.0014987067149100572, 0.00883448168789086], 5.472114512167781, 0.01139304397733941,
                         0.00374454823395368, 0.029307810080878727),
@@ -651,14 +664,8 @@ def test_a_thick_tool_crossing_an_earlier_opening_stays_one_incision():
         (strokes.line([-0.0028115038724116598, 0.005818055531331222], 0.29953961627264175, 0.010425107465018471),
          53.97118062358926, 0.004236411856100555, 0.001165553567717782, 0.005742747775174831, 0.0422535826347943),
     ]
-    for path, tilt, radius, depth, speed, tool_length in specs:
-        stroke = strokes.Stroke(surface, path, tilt=math.radians(tilt), radius=radius, depth=depth, speed=speed,
-                                tool_length=tool_length, margin=3e-3)
-        result = run_stroke(sim, stroke, surface)
-        assert result.exception is None, result.traceback
-        assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
-        assert result.incisions == 1
-        assert result.unfilled_holes == 0
+    for spec in specs:
+        assert one_valid_incision(sim, surface, *spec).unfilled_holes == 0
 
 
 def test_a_lip_pushed_across_the_curve_gives_its_station_a_new_lip():
@@ -670,17 +677,11 @@ def test_a_lip_pushed_across_the_curve_gives_its_station_a_new_lip():
     a lip of the same side, it is taken as tissue where it lies: its station gets a new lip and
     the cut opens the whole stroke."""
     surface = flat_grid(0.046358519432367004, 0.0025081214055164476, angle=0.6419714300050896)
-    model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
-    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=0.019591422619893557))
+    sim = supported_sim(surface, 0.019591422619893557)
     path = strokes.zigzag([-0.007880503116256083, -0.004513425162780224], 1.1241026628893132, 0.021285099203865235,
                           0.004491403806158755, 0.028386547405885997)
-    stroke = strokes.Stroke(surface, path, tilt=math.radians(68.48897595123483), radius=0.003045800446927011,
-                            depth=0.0028847832181556786, speed=0.016415276483890354,
-                            tool_length=0.04411799822184638, margin=3e-3)
-    result = run_stroke(sim, stroke, surface)
-    assert result.exception is None, result.traceback
-    assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
-    assert result.incisions == 1
+    result = one_valid_incision(sim, surface, path, 68.48897595123483, 0.003045800446927011, 0.0028847832181556786,
+                                0.016415276483890354, 0.04411799822184638)
     assert result.unfilled_holes == 0
     assert result.coverage >= 0.95
 
