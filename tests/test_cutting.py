@@ -21,7 +21,7 @@ from warp_cut.cut.classes import NodeClass, SpringClass
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh.checks import check_mesh, triangle_min_angles
-from warp_cut.mesh.surfaces import flat_grid, jittered_delaunay
+from warp_cut.mesh.surfaces import cylinder, flat_grid, jittered_delaunay
 from warp_cut.sim import strokes
 from warp_cut.verify.stroke_check import run_stroke
 from warp_cut.verify.validity import cut_problems
@@ -610,11 +610,11 @@ def test_delaunay_disk_stroke_leaves_no_hole():
     assert cut["incisions"] == 1 and cut["unfilled_holes"] == 0, cut
 
 
-def supported_sim(surface, interval: float) -> Simulator:
+def supported_sim(surface, interval: float, integrator: str = "semi_implicit") -> Simulator:
     """A cutting Simulator on ``surface`` with gravity and the foundation (k_f 1e6 N/m^3), as
     the fuzz cases below ran (``benchmarks/fuzz_cut.py``); events every ``interval`` [s]."""
     model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
-    return Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=interval))
+    return Simulator(model, dt=1e-3, device=DEVICE, integrator=integrator, cutting=CutSettings(interval=interval))
 
 
 def one_valid_incision(sim, surface, path, tilt_deg, radius, depth, speed, tool_length):
@@ -682,6 +682,24 @@ def test_a_lip_pushed_across_the_curve_gives_its_station_a_new_lip():
                           0.004491403806158755, 0.028386547405885997)
     result = one_valid_incision(sim, surface, path, 68.48897595123483, 0.003045800446927011, 0.0028847832181556786,
                                 0.016415276483890354, 0.04411799822184638)
+    assert result.unfilled_holes == 0
+    assert result.coverage >= 0.95
+
+
+def test_no_station_falls_due_where_its_lips_would_be_inside_the_tool():
+    """A thick tool (r 3.1 mm on a 1.6 mm cylinder mesh, 54 degrees, zigzag, implicit Euler, an
+    event every step) pressing the skin down reaches past its footprint on the flat skin, so a
+    station fell due while its lips would be made inside the tool. One lip was later found 2 mm
+    back along the curve from its station, and the 4-node hole left at the end had a border
+    that crossed itself (coverage 0.99, one hole). Stations now fall due only where their lips
+    are clear of the tool, and no hole is left."""
+    surface = cylinder(0.033275678148163415, 0.04675012323118936, 2.7046781616069744, 0.0016236213288328026,
+                       jitter=0.0, seed=1488651322)
+    sim = supported_sim(surface, 0.0, integrator="implicit_euler")
+    path = strokes.zigzag([0.0008060366074343003, -0.028124999999999997], 3.7427427960919704, 0.01476605955999952,
+                          0.003830324950994517, 0.015223373129425647)
+    result = one_valid_incision(sim, surface, path, 53.9895543132858, 0.0030763593871296494, 0.0010936698618277225,
+                                0.017234473619472394, 0.035057667163253474)
     assert result.unfilled_holes == 0
     assert result.coverage >= 0.95
 

@@ -45,7 +45,7 @@ from ..sim.state import State
 from .classes import NodeClass
 from .incision import Incision, closest_on_polyline
 from .measures import coverage, incision_width, lip_deviation
-from .remesh import fill_hole
+from .remesh import fill_hole, lips_inside
 from .surface import Crossing, locate_crossing
 from .topology import NodePositions, TopologyEditor
 
@@ -428,8 +428,7 @@ class Cutter:
         self._reopen_tip(sim, inc)  # new stations may fall there
         t1 = time.perf_counter()
         inc.extend(point, min_step=0.0, normal=normal)
-        behind = self._footprint(sim.tool_pose, inc)
-        inc.plan_stations(clearance=max(0.5 * self.spacing, behind + 0.25 * self.spacing))
+        inc.plan_stations(clearance=self._clearance(sim.tool_pose, inc))
         self.contact_path.append(point)
         t2 = time.perf_counter()
         # a sliver may wait a few events for better geometry, not forever
@@ -442,6 +441,20 @@ class Cutter:
             self.latency_ms[name].append(1e3 * dt)
         self.totals["events"] += 1
         self._count(report, result)
+
+    def _clearance(self, tool: Tool | None, inc: Incision) -> float:
+        """How far behind the curve's end [m] a station may be while the tool cuts: past the
+        tool's footprint (``_footprint``) by a quarter spacing, and further while the lips of a
+        station there would be made inside the tool (a tilted tool pressing the skin down
+        reaches beyond its footprint on the flat skin). A station due inside the tool would
+        hold back the fill of the whole hole it borders until the tool has gone."""
+        clearance = max(0.5 * self.spacing, self._footprint(tool, inc) + 0.25 * self.spacing)
+        if tool is None:
+            return clearance
+        while clearance < inc.length and lips_inside(
+                tool, np.array([inc.lip_position(inc.length - clearance, side) for side in (1, -1)])):
+            clearance += 0.25 * self.spacing
+        return clearance
 
     @staticmethod
     def _footprint(tool: Tool | None, inc: Incision) -> float:

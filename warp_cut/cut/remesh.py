@@ -20,6 +20,7 @@ from collections import defaultdict
 import numpy as np
 
 from ..mesh.geometry import triangle_min_angles
+from ..sim.strokes import inside_cylinder
 from .classes import NodeClass, SpringClass
 from .incision import closest_on_polyline
 
@@ -267,6 +268,16 @@ _PLACEHOLDER = 1 << 40
 """Lip nodes a fill would make are numbered from here until the fill is accepted."""
 
 
+LIP_TOOL_SLACK = 1.02
+"""A lip node is taken to be inside the tool within this many tool radii of its axis."""
+
+
+def lips_inside(tool, points) -> bool:
+    """True if any of ``points`` (k, 3) [m], where lip nodes would be made, lies inside the
+    tool's cylinder (widened by ``LIP_TOOL_SLACK``): a node made there is pushed out at once."""
+    return bool(inside_cylinder(points, tool.p0, tool.p1, LIP_TOOL_SLACK * tool.radius).any())
+
+
 def _crossed_lips(incision, positions, active) -> set:
     """Interior-station lip nodes that now lie across the curve, more than the lip offset on
     the other side (a thick tool pushed them over)."""
@@ -466,15 +477,9 @@ class _LipSlots:
                 and lips[0][1] == self._slit_end_u())
 
     def proposed_inside(self, tool) -> bool:
-        """True if a proposed new lip node lies inside the tool's cylinder."""
-        axis = tool.p1 - tool.p0
-        length2 = max(float(axis @ axis), 1e-300)
-        for ph in (ph for ph in self._proposed if ph >= _PLACEHOLDER):
-            rel = self.positions[ph] - tool.p0
-            t = float(rel @ axis) / length2
-            if 0.0 <= t <= 1.0 and float(np.linalg.norm(rel - t * axis)) < 1.02 * tool.radius:
-                return True
-        return False
+        """True if a proposed new lip node lies inside the tool's cylinder (``lips_inside``)."""
+        points = [self.positions[ph] for ph in self._proposed if ph >= _PLACEHOLDER]
+        return bool(points) and lips_inside(tool, np.array(points))
 
     def discard(self) -> None:
         self._version += 1
