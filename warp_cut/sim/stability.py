@@ -151,10 +151,11 @@ class ElementRates:
     largest rate of each kind is kept (found again by one pass only when the element that had it
     is rated again).
 
-    Arrays over slots: ``sums`` (nodes: S_i [N/m]), ``on_triangles`` (springs: live triangles
-    on the spring), and per element kind a (mass rate, damping rate) pair [1/s^2, 1/s] over
-    the slots of its table: ``triangles``, ``springs`` (springs on no triangle), ``links``,
-    ``foundation`` (nodes).
+    Arrays over the slots of their tables, spanning the tables' capacity (0 in dead and spare
+    slots): ``sums`` (nodes: S_i [N/m]), ``on_triangles`` (springs: live triangles on the
+    spring), and ``rates[kind]`` of shape (2, capacity), the mass rate [1/s^2] and the damping
+    rate [1/s] of each element of that kind: ``triangles``, ``springs`` (springs on no
+    triangle), ``links``, ``foundation`` (nodes).
     """
 
     KINDS = ("triangles", "springs", "links", "foundation")
