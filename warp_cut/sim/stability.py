@@ -211,15 +211,17 @@ class ElementRates:
         holds every spring at a corner of ``tris`` (to find their edges)."""
         self._grow()
         self._node_sums(nodes, springs_at, links_at)
-        self._count_triangles(tris, springs_near, springs_at)
         model = self.model
+        corners = model.triangle_table.column("corners")[tris]
+        edges = np.concatenate([corners[:, [a, b]] for a, b in _TRIANGLE_EDGES])
+        edge_slots = self._spring_slots(edges, springs_near).reshape(3, len(tris)).T  # (t, 3), -1: none
+        self._count_triangles(edge_slots, springs_at)
         table = model.node_table
 
         def free_at(idx):  # alive and not pinned
             return table.alive_buffer()[idx] & ~table.buffer("pinned")[idx]
 
-        edge_k = self._triangle_edge_stiffness(tris, springs_near)
-        corners = model.triangle_table.column("corners")[tris]
+        edge_k = self._triangle_edge_stiffness(edge_slots)
         alone = springs_at[self.on_triangles[springs_at] == 0]
         alone_pairs = model.spring_table.column("pairs")[alone]
         link_pairs = model.link_table.column("pairs")[links_at]
@@ -278,22 +280,16 @@ class ElementRates:
         at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
         return np.where(keys[at] == wanted, slots[at], -1)
 
-    def _count_triangles(self, tris, springs_near, springs_at) -> None:
-        """Live triangles on each spring of ``springs_at`` (all of theirs are among ``tris``)."""
-        corners = self.model.triangle_table.column("corners")[tris]
-        edges = np.concatenate([corners[:, [a, b]] for a, b in _TRIANGLE_EDGES])
-        slots = self._spring_slots(edges, springs_near)
+    def _count_triangles(self, edge_slots, springs_at) -> None:
+        """Live triangles on each spring of ``springs_at``, from the spring slots (t, 3) of the
+        edges of triangles that hold all of theirs (-1: an edge without a spring)."""
         self.on_triangles[springs_at] = 0
-        hit = slots[slots >= 0]
+        hit = edge_slots[edge_slots >= 0]
         np.add.at(self.on_triangles, hit[np.isin(hit, springs_at)], 1)
 
-    def _triangle_edge_stiffness(self, tris, springs_near) -> np.ndarray:
-        """(t, 3) stiffness each triangle of ``tris`` gets of its edges' springs (a spring's
-        stiffness split among its triangles; 0 for an edge without a spring)."""
-        corners = self.model.triangle_table.column("corners")[tris]
-        t = len(tris)
-        edges = np.concatenate([corners[:, [a, b]] for a, b in _TRIANGLE_EDGES])
-        slots = self._spring_slots(edges, springs_near).reshape(3, t).T
+    def _triangle_edge_stiffness(self, slots) -> np.ndarray:
+        """(t, 3) stiffness each triangle gets of its edges' springs, their slots (t, 3) (a
+        spring's stiffness split among its triangles; 0 for an edge without a spring, -1)."""
         k = self.model.spring_table.column("stiffness")
         safe = np.maximum(slots, 0)
         return np.where(slots >= 0, k[safe] / np.maximum(self.on_triangles[safe], 1), 0.0)
