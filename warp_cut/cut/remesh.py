@@ -278,17 +278,6 @@ def lips_inside(tool, points) -> bool:
     return bool(inside_cylinder(points, tool.p0, tool.p1, LIP_TOOL_SLACK * tool.radius).any())
 
 
-def _crossed_lips(incision, positions, active) -> set:
-    """Interior-station lip nodes that now lie across the curve, more than the lip offset on
-    the other side (a thick tool pushed them over)."""
-    lips = [(node, side) for node, _, side, station in incision.lip_nodes()
-            if station >= 0 and node >= 0 and active[node]]
-    if not lips:
-        return set()
-    _, now, dist = incision.project(positions[[node for node, _ in lips]])
-    return {node for (node, side), s, d in zip(lips, now, dist) if s != side and d > incision.lip_offset}
-
-
 class _LipSlots:
     """The incision's lip slots during one fill: which exist, their slit coordinates, and lip
     nodes proposed for a chain (placeholders, made real only if its fill is accepted)."""
@@ -296,8 +285,6 @@ class _LipSlots:
     def __init__(self, editor, incision, positions):
         self.editor, self.incision, self.positions = editor, incision, positions
         active = editor.model.active
-        self.crossed = _crossed_lips(incision, positions, active)
-        """Lip nodes across the curve (``_crossed_lips``)."""
         self.slots = [(node if node >= 0 and active[node] else -1, theta, side, station)
                       for node, theta, side, station in incision.lip_nodes()]
         self.theta = {node: theta for node, theta, *_ in self.slots if node >= 0}
@@ -328,17 +315,25 @@ class _LipSlots:
         self._version += 1
 
     def pushed_over_end(self, chain) -> int | None:
-        """A lip pushed across the curve (``crossed``) at an end of an open ``chain`` whose two
-        ends are lips of one side: the hole reaches past the slit's tip, but the crossed lip,
-        taken as on its own side, bounds its slit coordinates to the stretch between the two
-        (no station due beyond the tip is offered). None if there is none."""
-        if chain[0] == chain[-1] or not self.crossed:
+        """A lip pushed across the curve (more than the lip offset onto the other side, by a
+        thick tool) at an end of an open ``chain`` whose two ends are interior-station lips of
+        one side: the hole reaches past the slit's tip, but the crossed lip, taken as on its
+        own side, bounds its slit coordinates to the stretch between the two (no station due
+        beyond the tip is offered). None if there is none."""
+        if chain[0] == chain[-1]:
             return None
         sides = {n: side for n, _, side, station in self.slots if n >= 0 and station >= 0}
         ends = (chain[0], chain[-1])
         if not all(v in sides for v in ends) or sides[ends[0]] != sides[ends[1]]:
             return None
-        return next((v for v in ends if v in self.crossed), None)
+        _, now, dist = self.incision.project(self.positions[list(ends)])
+        return next((v for v, s, d in zip(ends, now, dist) if s != sides[v] and d > self.incision.lip_offset),
+                    None)
+
+    @property
+    def lip_nodes(self) -> set:
+        """The live lip nodes of the slots, and those released (still on the slit's border)."""
+        return {s[0] for s in self.slots if s[0] >= 0} | set(self._released)
 
     def projected(self, nodes) -> list[tuple[float, int]]:
         """(u [m], side) of each node's closest curve point (projected once per fill: the
@@ -721,7 +716,7 @@ def _notch(editor, chain, slots: _LipSlots) -> bool:
     hole."""
     if chain[0] == chain[-1]:
         return False
-    lips = {s[0] for s in slots.slots if s[0] >= 0} | slots.crossed  # a crossed lip still borders the slit
+    lips = slots.lip_nodes
     return any(v not in lips and _on_outer_border(editor, v, lips) for v in (chain[0], chain[-1]))
 
 
