@@ -121,10 +121,10 @@ def test_one_incision_per_stroke(case):
     assert result.incisions == 1
 
 
-@pytest.mark.xfail(strict=False, reason="a tool thicker than the spacing and leaning far over can push a lip "
-                                        "across the curve where no fill can join it (2 of 177 strokes of make fuzz, "
-                                        "e.g. --case 3999303432 --kind cylinder --strokes 1); the examples drawn "
-                                        "here all pass on this code")
+@pytest.mark.xfail(strict=False, reason="a tool thicker than the spacing and leaning far over can push a tip lip "
+                                        "across the curve, and the hole ahead of it stays unfilled (1 of 175 "
+                                        "strokes of make fuzz: --case 876673636 --kind saddle --strokes 1); the "
+                                        "examples drawn here all pass on this code")
 @fuzz
 def test_no_hole_open_after_the_stroke(case):
     _, result = cut(case)

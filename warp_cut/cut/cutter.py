@@ -44,8 +44,9 @@ from ..sim.stability import ElementRates, StepLimit
 from ..sim.state import State
 from .classes import NodeClass
 from .incision import Incision, closest_on_polyline
+from .lip_slots import lips_inside
 from .measures import coverage, incision_width, lip_deviation
-from .remesh import fill_hole, lips_inside
+from .remesh import fill_hole
 from .surface import Crossing, locate_crossing
 from .topology import NodePositions, TopologyEditor
 
