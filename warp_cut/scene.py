@@ -20,6 +20,7 @@ import numpy as np
 from .cut.cutter import CutSettings
 from .errors import InputError, SceneError
 from .mesh.checks import cuttable_problems
+from .sim.bending import flexural_rigidity
 from .sim.control import ToolPath
 from .sim.material import RESIDUAL_STRESS_MODELS, Material
 from .sim.model import TissueModel, boundary_nodes
@@ -43,8 +44,8 @@ _SCHEMA: dict[str, set[str]] = {
     "tissue": {"kind", "size", "spacing", "path", "scale", "thickness", "density", "pinned",
                "uniform_mass"},
     "material": {"stiffness", "stiffness_model", "damping", "youngs_modulus", "residual_strain",
-                 "residual_stress_model", "foundation_stiffness"},
-    "physics": {"gravity", "residual_stress", "collision", "cutting", "foundation"},
+                 "residual_stress_model", "foundation_stiffness", "bending_rigidity"},
+    "physics": {"gravity", "residual_stress", "collision", "cutting", "foundation", "bending"},
     "solver": {"integrator", "dt", "substeps", "safety"},
     "tool": {"radius", "length", "keyframes"},
     "cutting": {"sweep_radius", "interval", "force_threshold", "spacing", "tolerance", "lip_offset"},
@@ -158,6 +159,8 @@ class PhysicsSection:
         cutting: Cut the tissue where the tool goes.
         foundation: A support holding each node to its rest position
             (``material.foundation_stiffness``).
+        bending: The sheet resists bending (a hinge on every interior edge,
+            ``material.bending_rigidity``; ``warp_cut.sim.bending``).
     """
 
     gravity: np.ndarray | None
@@ -165,6 +168,7 @@ class PhysicsSection:
     collision: bool = True
     cutting: bool = False
     foundation: bool = False
+    bending: bool = False
 
 
 @dataclass(frozen=True)
@@ -344,7 +348,10 @@ def _parse_material(r: _Reader) -> tuple[Material, str]:
     stress_model = r.choice(mat_t, "material", "residual_stress_model", "links", set(RESIDUAL_STRESS_MODELS))
     k_f = r.number(mat_t, "material", "foundation_stiffness", DEFAULT_FOUNDATION_STIFFNESS,
                    low=0, high=1e10, low_open=True)
-    material = dataclasses.replace(material, residual_stress_model=stress_model, foundation_stiffness=k_f)
+    rigidity = r.number(mat_t, "material", "bending_rigidity",
+                        flexural_rigidity(material.youngs_modulus, material.thickness), low=0, high=1e6)
+    material = dataclasses.replace(material, residual_stress_model=stress_model, foundation_stiffness=k_f,
+                                   bending_rigidity=rigidity)
     return material, model
 
 
@@ -422,6 +429,7 @@ def _parse_physics(r: _Reader) -> PhysicsSection:
         collision=r.boolean(phys_t, "physics", "collision", True),
         cutting=r.boolean(phys_t, "physics", "cutting", False),
         foundation=r.boolean(phys_t, "physics", "foundation", False),
+        bending=r.boolean(phys_t, "physics", "bending", False),
     )
 
 
@@ -509,6 +517,8 @@ def parse_scene(data: dict, path=None) -> Scene:
     physics = _parse_physics(r)
     if not physics.foundation:  # the support's stiffness counts only when the scene asks for it
         material = dataclasses.replace(material, foundation_stiffness=0.0)
+    if not physics.bending:  # so does the bending rigidity
+        material = dataclasses.replace(material, bending_rigidity=0.0)
     solver = _parse_solver(r, fps)
     cutting = _parse_cutting(r, duration)
     if physics.cutting and "tool" not in data:

@@ -57,7 +57,7 @@ __all__ = ["BackgroundCutter", "CutSummary", "TableEdit", "ModelEdit", "DEFAULT_
 DEFAULT_MAX_LAG = None
 """Steps a cut event may stay in flight before the loop waits for it: None, never (a haptic
 loop would rather cut late than answer late)."""
-_TABLES = ("node_table", "spring_table", "triangle_table", "link_table")
+_TABLES = ("node_table", "spring_table", "triangle_table", "link_table", "hinge_table")
 ANCHORS = 3
 """Nodes whose motion carries a new node from the event to the step its edit applies at."""
 _START_TIMEOUT_S = 120.0

@@ -514,7 +514,7 @@ class Cutter:
         # a hole waiting for the tool to move on does not count against the sliver deferrals
         inc.deferrals = inc.deferrals + 1 if result["unfilled"] and not result["under_tool"] else 0
         inc.open_chains = result["unfilled"] + result["waiting"]  # retried at the next event
-        report = editor.finish()
+        report = editor.finish(positions=positions)
         self._carry_links(inc, report, positions)
         self._open_links(inc, positions)
         return report, result, positions

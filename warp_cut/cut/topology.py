@@ -1,12 +1,13 @@
 """TopologyEditor: the one place where a TissueModel's topology changes.
 
-Nodes, springs, triangles, masses, classes and residual links change together in one edit:
+Nodes, springs, triangles, masses, classes, residual links and hinges change together in one edit:
 deleting a node deletes its springs, triangles and links; deleting a spring whose two end
 nodes survive makes a residual-stress link (SPEC section 1) and deletes the triangles it
 bounds; new triangles bring their missing edge springs; lumped masses of every node touched
-are recomputed from its triangles; nodes left without any triangle are removed as fragments.
-Every operation costs what it touches: adjacency (node -> springs, node -> triangles) is
-kept up to date instead of being rebuilt.
+are recomputed from its triangles; nodes left without any triangle are removed as fragments; a
+sheet that bends gets the hinges of the edges whose triangles changed made again, at the
+current shape (``warp_cut.sim.bending``). Every operation costs what it touches: adjacency
+(node -> springs, triangles, links, hinges) is kept up to date instead of being rebuilt.
 """
 
 from __future__ import annotations
@@ -72,6 +73,8 @@ class EditReport:
     """Nodes deleted because the edit left them without any triangle."""
     stray_springs: list = field(default_factory=list)
     """Springs deleted because the edit left them on no triangle (inside the grey area)."""
+    deleted_hinges: list = field(default_factory=list)
+    new_hinges: list = field(default_factory=list)
 
 
 class TopologyEditor:
@@ -94,8 +97,14 @@ class TopologyEditor:
             i, j = model.link_table.column("pairs")[slot]
             self.node_links[i].add(int(slot))
             self.node_links[j].add(int(slot))
+        self.node_hinges: list[set] = [set() for _ in range(n)]
+        self.edge_hinges: dict[tuple[int, int], int] = {}
+        for slot in model.hinge_table.live_slots():
+            self._register_hinge(int(slot))
         self.report = EditReport()
         self._touched: set[int] = set()
+        self.hinge_nodes_changed: set[int] = set()
+        """Nodes of the hinges the current edit made or deleted."""
 
     # ------------------------------------------------------------------ queries
     @property
@@ -119,6 +128,7 @@ class TopologyEditor:
     def begin(self) -> None:
         self.report = EditReport()
         self._touched = set()
+        self.hinge_nodes_changed = set()
 
     def delete_triangles(self, slots) -> None:
         table = self.model.triangle_table
@@ -230,6 +240,7 @@ class TopologyEditor:
             self.node_springs.append(set())
             self.node_triangles.append(set())
             self.node_links.append(set())
+            self.node_hinges.append(set())
         self.report.new_nodes.extend(int(s) for s in slots)
         self._touched.update(int(s) for s in slots)
         return slots
@@ -287,9 +298,11 @@ class TopologyEditor:
             self.model.node_table.set("node_class", nodes, node_class)
 
     # ------------------------------------------------------------------ finish
-    def finish(self, *, lumped: bool = True) -> EditReport:
-        """Remove springs left on no triangle and nodes left without any (fragments), recompute
-    the lumped masses of touched nodes, bump the version."""
+    def finish(self, *, lumped: bool = True, positions=None) -> EditReport:
+        """Remove springs left on no triangle and nodes left without any (fragments), make the
+        hinges of changed edges again (at ``positions``, current node positions [m] indexable
+        by node arrays; the rest positions if None), recompute the lumped masses of touched
+        nodes, bump the version."""
         model = self.model
         # a spring no triangle uses any more lay inside the grey area: it goes too
         pairs = model.spring_table.column("pairs")
@@ -305,6 +318,8 @@ class TopologyEditor:
             self.report.removed_fragments.extend(fragments)
         if model.stiffness_model == "material":
             self._refresh_material_stiffness()
+        if model.material.bending_rigidity > 0:
+            self._refresh_hinges(model.points if positions is None else positions)
         touched = np.array(sorted(v for v in self._touched if model.active[v]), dtype=np.int64)
         if len(touched) and lumped:
             areal = model.material.density * model.material.thickness
@@ -315,14 +330,72 @@ class TopologyEditor:
         model.topology_version += 1
         return self.report
 
+    def _changed_edges(self) -> set[tuple[int, int]]:
+        """Node pairs (i < j) of the edges of the triangles this edit deleted or made."""
+        table = self.model.triangle_table
+        corners = list(self.report.deleted_triangle_corners)
+        corners += [tuple(int(v) for v in table.column("corners")[t]) for t in self.report.new_triangles]
+        return {tuple(sorted((int(c[k]), int(c[(k + 1) % 3])))) for c in corners for k in range(3)}
+
+    def _register_hinge(self, slot: int) -> None:
+        a, b, k, l = (int(v) for v in self.model.hinge_table.column("nodes")[slot])
+        for v in (a, b, k, l):
+            self.node_hinges[v].add(slot)
+        self.edge_hinges[(a, b)] = slot
+
+    def _hinge_of_edge(self, i: int, j: int) -> tuple[int, int, int, int] | None:
+        """[i, j, k, l] of the edge i < j if exactly two live triangles share it, wound apart."""
+        tris = self.triangles_with_edge(i, j)
+        if len(tris) != 2:
+            return None
+        corners = self.model.triangle_table.column("corners")
+        k = l = -1
+        for t in tris:
+            c = [int(v) for v in corners[t]]
+            at = c.index(i)
+            if c[(at + 1) % 3] == j:
+                k = c[(at + 2) % 3]
+            else:
+                l = c[(at + 1) % 3]
+        return (i, j, k, l) if k >= 0 and l >= 0 else None
+
+    def _refresh_hinges(self, positions) -> None:
+        """Hinges of the edges whose triangles changed: kept where the edge still joins the same
+        two triangles' corners, else deleted and made again at ``positions`` (where two
+        triangles share the edge), as new springs take their current length."""
+        model = self.model
+        table = model.hinge_table
+        fresh = []
+        for i, j in sorted(self._changed_edges()):
+            old = self.edge_hinges.get((i, j))
+            hinge = self._hinge_of_edge(i, j) if model.active[i] and model.active[j] else None
+            if old is not None and hinge is not None and tuple(table.column("nodes")[old]) == hinge:
+                continue
+            if old is not None:
+                self._kill_hinge(old)
+            if hinge is not None:
+                fresh.append(hinge)
+        if fresh:
+            for slot in model.add_hinges(np.array(fresh, dtype=np.int64), positions):
+                self._register_hinge(int(slot))
+                self.hinge_nodes_changed.update(int(v) for v in table.column("nodes")[slot])
+                self.report.new_hinges.append(int(slot))
+
+    def _kill_hinge(self, slot: int) -> None:
+        nodes = [int(v) for v in self.model.hinge_table.column("nodes")[slot]]
+        for v in nodes:
+            self.node_hinges[v].discard(slot)
+        del self.edge_hinges[(nodes[0], nodes[1])]
+        self.hinge_nodes_changed.update(nodes)
+        self.model.hinge_table.kill([slot])
+        self.report.deleted_hinges.append(slot)
+
     def _refresh_material_stiffness(self) -> None:
         """Give the springs whose triangles changed in this edit (new ones included) their
         van Gelder stiffness from the triangles they now border (``warp_cut.sim.stiffness``)."""
         model = self.model
         table = model.triangle_table
-        corners = list(self.report.deleted_triangle_corners)
-        corners += [tuple(int(v) for v in table.column("corners")[t]) for t in self.report.new_triangles]
-        edges = {tuple(sorted((c[k], c[(k + 1) % 3]))) for c in corners for k in range(3)}
+        edges = self._changed_edges()
         areas, rest = table.column("area"), model.spring_table.column("rest_length")
         slots, area_sums = [], []
         for i, j in edges:

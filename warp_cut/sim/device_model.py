@@ -30,7 +30,7 @@ def _node_flags(model, slots) -> np.ndarray:
 
 def _columns(model):
     """(device attribute, table, host values for slots, warp dtype) of every mirrored column."""
-    n, s, l = model.node_table, model.spring_table, model.link_table
+    n, s, l, h = model.node_table, model.spring_table, model.link_table, model.hinge_table
     return [
         ("rest_positions", n, lambda idx: n.buffer("points")[idx], wp.vec3),
         ("node_mass", n, lambda idx: n.buffer("masses")[idx], wp.float32),
@@ -46,6 +46,10 @@ def _columns(model):
         ("link_indices", l, lambda idx: l.buffer("pairs")[idx], wp.int32),
         ("link_force", l, lambda idx: l.buffer("force")[idx], wp.float32),
         ("link_smoothing", l, lambda idx: l.buffer("smoothing")[idx], wp.float32),
+        ("hinge_indices", h, lambda idx: h.buffer("nodes")[idx], wp.int32),
+        ("hinge_rest_angle", h, lambda idx: h.buffer("rest_angle")[idx], wp.float32),
+        ("hinge_stiffness", h, lambda idx: h.buffer("stiffness")[idx], wp.float32),
+        ("hinge_cap", h, lambda idx: h.buffer("cap")[idx], wp.float32),
     ]
 
 
@@ -98,9 +102,16 @@ class DeviceModel:
             dead slots.
         link_force: Link force sigma_r A [N], shape (link capacity,) float32.
         link_smoothing: Link smoothing length [m], shape (link capacity,) float32.
+        hinge_indices: Hinge nodes [a, b, k, l], flat, shape (4 * hinge capacity,) int32; -1 for
+            dead slots (``warp_cut.sim.bending``).
+        hinge_rest_angle: Rest dihedral angles [rad], shape (hinge capacity,) float32.
+        hinge_stiffness: Hinge stiffness k_h [N m], shape (hinge capacity,) float32.
+        hinge_cap: The most a hinge holds, k_h |d theta / d x|^2 [N/m] (``sim.bending.hinge_caps``),
+            shape (hinge capacity,) float32.
         node_count: Used node slots.
         spring_count: Used spring slots.
         link_count: Used link slots.
+        hinge_count: Used hinge slots.
     """
 
     def __init__(self, model, device: str = "cpu"):
@@ -112,6 +123,11 @@ class DeviceModel:
     def foundation_stiffness(self) -> float:
         """k_f [N/m^3] of the model's support (0: none, the foundation is not compiled)."""
         return self.model.foundation_stiffness
+
+    @property
+    def bending(self) -> bool:
+        """Whether the model's sheet resists bending (hinges launched; ``material.bending_rigidity`` > 0)."""
+        return self.model.material.bending_rigidity > 0
 
     def _allocate(self) -> None:
         """Upload every column at its table's capacity and forget the tables' changes."""
@@ -130,6 +146,7 @@ class DeviceModel:
         self.node_count = self.model.node_table.count
         self.spring_count = self.model.spring_table.count
         self.link_count = self.model.link_table.count
+        self.hinge_count = self.model.hinge_table.count
 
     def sync(self) -> bool:
         """Copy the model's changed slots to the device.
@@ -149,9 +166,11 @@ class DeviceModel:
             slots = changes[id(table)][0]
             if not len(slots):
                 continue
-            if name.endswith("_indices"):  # pairs are stored flat: slot s owns entries 2s and 2s + 1
-                idx = np.stack([2 * slots, 2 * slots + 1], axis=1).ravel()
-                write_slots(getattr(self, name), idx, np.asarray(values(slots)).ravel(), self._views.get(name))
+            if name.endswith("_indices"):  # stored flat: slot s of width w owns entries ws .. ws + w - 1
+                rows = np.asarray(values(slots))
+                width = rows.shape[1]
+                idx = (width * slots[:, None] + np.arange(width)).ravel()
+                write_slots(getattr(self, name), idx, rows.ravel(), self._views.get(name))
             else:
                 write_slots(getattr(self, name), slots, values(slots), self._views.get(name))
         self._counts()

@@ -35,6 +35,8 @@ class Material:
     foundation_stiffness: k_f [N/m^3] of the support under the sheet (subcutaneous tissue):
         each node is held to its rest position with stiffness k_f x its lumped area;
         0 (default) = no support.
+    bending_rigidity: D [N m] of the sheet's bending (``warp_cut.sim.bending``: a hinge on every
+        interior edge); 0 (default) = a membrane without bending stiffness.
     """
 
     stiffness: float = 160.0
@@ -45,6 +47,7 @@ class Material:
     density: float = 1100.0
     residual_stress_model: str = "links"
     foundation_stiffness: float = 0.0
+    bending_rigidity: float = 0.0
 
     def __post_init__(self):
         if self.residual_stress_model not in RESIDUAL_STRESS_MODELS:

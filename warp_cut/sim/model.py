@@ -16,6 +16,7 @@ import trimesh
 from ..errors import InputError
 from ..mesh.geometry import boundary_nodes, edges_of, triangle_areas
 from ..mesh.patch import skin_patch_mesh
+from .bending import dihedral_angles, hinge_caps, hinge_stiffness, hinges_of
 from .material import Material
 from .prestress import prestressed_rest_lengths
 from .slots import SlotTable
@@ -77,6 +78,9 @@ class TissueModel:
         (area when the triangle was made, used for lumped masses).
         links (link_count, 2) int64 residual-stress pairs; link_force sigma_r A [N];
         link_smoothing eps [m].
+    hinge_table: with ``material.bending_rigidity`` > 0, a hinge per interior edge
+        (``warp_cut.sim.bending``): ``nodes`` (4,) [a, b, k, l], ``rest_angle`` theta_0 [rad],
+        ``stiffness`` k_h [N m], ``cap`` [N/m] (``hinge_caps``); empty without bending.
     material: the Material the model was built with.
     topology_version: incremented by every topology edit (exporters re-author topology).
     """
@@ -95,7 +99,12 @@ class TissueModel:
         self.link_table = SlotTable({
             "pairs": np.zeros((0, 2), np.int64), "force": np.zeros(0),
             "smoothing": np.zeros(0)}, key="pairs")
+        self.hinge_table = SlotTable({
+            "nodes": np.zeros((0, 4), np.int64), "rest_angle": np.zeros(0),
+            "stiffness": np.zeros(0), "cap": np.zeros(0)}, key="nodes")
         self.material = material
+        if material.bending_rigidity > 0:
+            self.add_hinges(hinges_of(triangles), points)
         self.stiffness_model = "constant"
         """How springs made later (by a cut) get their stiffness: ``"constant"`` (the material's
         K) or ``"material"`` (van Gelder, from E, thickness and their triangles)."""
@@ -377,6 +386,27 @@ class TissueModel:
             self.points, self.triangles, self.springs, self.stiffness, T,
             what=f"the membrane tension (youngs_modulus {mat.youngs_modulus:g} Pa x "
                  f"residual_strain {mat.residual_strain:g} x thickness {mat.thickness:g} m)")
+
+    def add_hinges(self, hinges, positions) -> np.ndarray:
+        """Hinges (h, 4) [a, b, k, l] made at ``positions`` (node positions [m], anything an index
+        array turns into (k, 3)): their angle there is their rest angle, their stiffness from the
+        material's bending rigidity and the triangles' shape there. Returns their slots (h,)."""
+        hinges = np.asarray(hinges, dtype=np.int64).reshape(-1, 4)
+        x = positions
+        rigidity = self.material.bending_rigidity
+        return self.hinge_table.append(
+            nodes=hinges, rest_angle=dihedral_angles(x, hinges),
+            stiffness=hinge_stiffness(x, hinges, rigidity), cap=hinge_caps(x, hinges, rigidity))
+
+    @property
+    def hinges(self) -> np.ndarray:
+        """Live hinges (h, 4) [a, b, k, l] (a copy)."""
+        return self.hinge_table.live("nodes")
+
+    @property
+    def hinge_count(self) -> int:
+        """Used hinge slots (dead ones included)."""
+        return self.hinge_table.count
 
     @property
     def foundation_stiffness(self) -> float:

@@ -33,6 +33,13 @@ oscillation), so it sets no step. Bounding each spring's positive part by k I ma
 than the scalar graph Laplacian (times the 3 x 3 identity) that the elements bound; the tests
 check this on a compressed sheet against the eigenvalues of the iteration.
 
+The sheet's bending (hinges, ``warp_cut.sim.bending``), when it has any, is added on top
+(Weyl: lambda_max(M^-1 (K + B)) <= lambda_max(M^-1 K) + lambda_max(M^-1 B)), its part bounded by
+Gershgorin's row sums of M^-1 B and D^-1 B (``bending_node_rows``): each hinge holds
+k_h g g^T with k_h |g|^2 capped (``warp_cut.sim.bending.hinge_caps``), whatever the shape (the
+term k_h (theta - theta_0) d2 theta, which vanishes at rest, is left out as the springs'
+transverse stiffness is).
+
 ``node_stiffness_sums`` keeps Gershgorin's row sums for XPBD's explicit part
 (``warp_cut.solvers.xpbd``).
 """
@@ -43,7 +50,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "foundation_rows", "ElementRates"]
+from .bending import bending_rows
+
+__all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "foundation_rows", "bending_node_rows",
+           "damped_step", "ElementRates"]
 
 
 @dataclass(frozen=True)
@@ -69,6 +79,15 @@ def foundation_rows(model, nodes=slice(None)) -> np.ndarray:
     return k_f * masses / model.material.areal_density if k_f > 0 else np.zeros_like(masses)
 
 
+def bending_node_rows(model, hinge_slots=None) -> np.ndarray:
+    """A bound B_i [N/m] (node slots,) on Gershgorin's row sums of the bending stiffness of the
+    hinges at ``hinge_slots`` (all live ones by default), whatever the shape
+    (``warp_cut.sim.bending.bending_rows``): 0 without bending."""
+    table = model.hinge_table
+    slots = table.live_slots() if hinge_slots is None else np.asarray(hinge_slots, dtype=np.int64)
+    return bending_rows(model.node_count, table.column("nodes")[slots], table.column("cap")[slots])
+
+
 def _link_stiffness(model, slots) -> np.ndarray:
     """A residual link's largest stiffness F / eps [N/m] at link ``slots``."""
     links = model.link_table
@@ -77,8 +96,9 @@ def _link_stiffness(model, slots) -> np.ndarray:
 
 def node_stiffness_sums(model) -> np.ndarray:
     """Gershgorin row sums R_i [N/m], (node_count,): every spring and residual link at node i,
-    counted twice unless its other end is pinned, and the foundation's k_f A_i once."""
-    sums = foundation_rows(model).astype(np.float64)
+    counted twice unless its other end is pinned, the foundation's k_f A_i once and the
+    bending's row sum (``bending_node_rows``)."""
+    sums = foundation_rows(model).astype(np.float64) + bending_node_rows(model)
     free = (~model.pinned).astype(np.float64)
     links = model.link_table.live_slots()
     for pairs, k in ((model.springs, model.stiffness), (model.links, _link_stiffness(model, links))):
@@ -87,7 +107,7 @@ def node_stiffness_sums(model) -> np.ndarray:
     return sums
 
 
-def _damped_step(mass_rate: float, damping_rate: float) -> float:
+def damped_step(mass_rate: float, damping_rate: float) -> float:
     """a + sqrt(a^2 + 4 / Lambda_M) [s] with a = 1 / Lambda_D (a = 0 where some free node has
     no damping: Lambda_D is infinite)."""
     a = 1.0 / damping_rate if 0.0 < damping_rate < np.inf else 0.0
@@ -167,6 +187,7 @@ class ElementRates:
         self.rates = {kind: np.zeros((2, 0)) for kind in self.KINDS}
         self._top = {kind: [-1, -1] for kind in self.KINDS}
         """Slot of each kind's largest rate per weight (-1: unknown)."""
+        self.bend = bending_node_rows(model)
         nodes = model.node_table.live_slots()
         self._rate(nodes, model.triangle_table.live_slots(), model.spring_table.live_slots(),
                    model.spring_table.live_slots(), model.link_table.live_slots())
@@ -190,6 +211,16 @@ class ElementRates:
         links_at = sorted({s for v in nodes for s in editor.node_links[v]})
         self._rate(nodes, np.array(tris, np.int64), np.array(springs_near, np.int64),
                    np.array(springs_at, np.int64), np.array(links_at, np.int64))
+        self._rate_bending(editor)
+
+    def _rate_bending(self, editor) -> None:
+        """The bending's row sums again at the nodes of hinges the edit made or deleted."""
+        nodes = np.array(sorted(editor.hinge_nodes_changed), dtype=np.int64)
+        if not len(nodes):
+            return
+        hinges = np.array(sorted({h for v in nodes for h in editor.node_hinges[v]}), dtype=np.int64)
+        rows = bending_node_rows(self.model, hinges)
+        self.bend[nodes] = rows[nodes]
 
     def _grow(self) -> None:
         """Extend the slot arrays to the tables' capacities (which grow geometrically)."""
@@ -201,6 +232,7 @@ class ElementRates:
                 [values, np.zeros(values.shape[:-1] + (extra,), values.dtype)], axis=-1)
 
         self.sums = grown(self.sums, model.node_table.capacity)
+        self.bend = grown(self.bend, model.node_table.capacity)
         self.on_triangles = grown(self.on_triangles, model.spring_table.capacity)
         for kind, table in self.tables().items():
             self.rates[kind] = grown(self.rates[kind], table.capacity)
@@ -319,15 +351,39 @@ class ElementRates:
             found.append((best, where))
         return found[0], found[1]
 
+    def bending_bounds(self) -> tuple[tuple, tuple]:
+        """((max B_i / m_i [1/s^2], node), (max B_i / D_i [1/s], node)) over the free live nodes
+        (Gershgorin's bound on the bending alone; 0 and -1 without bending)."""
+        model = self.model
+        n = model.node_count
+        free = model.active & ~model.pinned & (self.bend[:n] > 0)
+        if not free.any():
+            return (0.0, -1), (0.0, -1)
+        nodes = np.flatnonzero(free)
+        found = []
+        for weight in (model.masses[nodes], model.damping[nodes]):
+            with np.errstate(divide="ignore"):
+                rate = np.where(weight > 0, self.bend[nodes] / np.where(weight > 0, weight, 1.0), np.inf)
+            k = int(np.argmax(rate))
+            found.append((float(rate[k]), int(nodes[k])))
+        return found[0], found[1]
+
     def limit(self, include_damping: bool = True) -> StepLimit:
         """The current StepLimit (as ``stable_time_step`` would compute it)."""
         (mass_rate, mass_element), (damping_rate, damping_element) = self.bounds()
+        (bend_mass, bend_mass_node), (bend_damping, bend_damping_node) = self.bending_bounds()
+        if bend_mass > 0:  # Weyl: the bounds add; the limiting node is the bending's if it is larger
+            if bend_mass > mass_rate:
+                mass_element = ("foundation", bend_mass_node)
+            if bend_damping > damping_rate:
+                damping_element = ("foundation", bend_damping_node)
+            mass_rate, damping_rate = mass_rate + bend_mass, damping_rate + bend_damping
         if mass_rate <= 0.0:
             return StepLimit(float("inf"), float("inf"), -1, 0.0)
         undamped = 2.0 / np.sqrt(mass_rate)
         if not include_damping:
             return StepLimit(float(undamped), float(undamped), self._node_of(*mass_element), float(np.sqrt(mass_rate)))
-        step = _damped_step(mass_rate, damping_rate)
+        step = damped_step(mass_rate, damping_rate)
         damping_binds = np.isfinite(damping_rate) and damping_rate * damping_rate * 4.0 < mass_rate
         limiting = damping_element if damping_binds else mass_element
         return StepLimit(step, float(undamped), self._node_of(*limiting), float(np.sqrt(mass_rate)))

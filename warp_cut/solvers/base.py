@@ -32,6 +32,7 @@ import math
 import numpy as np
 import warp as wp
 
+from ..kernels.bending import hinge_forces
 from ..kernels.collision import clear_tool_stats
 from ..kernels.diagnostics import displacement_limit_sq
 from ..sim.control import Tool
@@ -74,6 +75,8 @@ class SolverBase:
         self.foundation_stiffness = float(model.foundation_stiffness)
         """k_f [N/m^3] of the model's support; 0: the foundation is neither launched nor compiled."""
         self.foundation = self.foundation_stiffness > 0.0
+        self.bending = model.bending
+        """Launch the hinge forces (the model's sheet resists bending, ``warp_cut.sim.bending``)."""
         self.replay = replay
         device = model.device
         self.device = device
@@ -156,7 +159,8 @@ class SolverBase:
         """The model sizes baked into recorded launches (dims and count arguments): here the
         used-slot counts of nodes, springs and links and the spring arrays read."""
         m = self.model
-        return (m.node_count, m.spring_count, m.link_count, self.spring_arrays()[0].ptr)
+        return (m.node_count, m.spring_count, m.link_count, self.spring_arrays()[0].ptr,
+                m.hinge_indices.ptr)
 
     # ------------------------------------------------------------------ helpers
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
@@ -193,6 +197,18 @@ class SolverBase:
             wp.array(m.spring_stiffness.numpy()[order], dtype=wp.float32, device=device),
             len(order),
         )
+
+    def add_hinge_forces(self, seq: LaunchSequence, positions, forces) -> None:
+        """Record the hinge forces at ``positions`` into ``forces`` when the sheet bends; the
+        launch spans the hinge arrays' capacity (dead and spare slots are skipped), so an edit
+        within capacity keeps it."""
+        if not self.bending:
+            return
+        m = self.model
+        count = m.hinge_stiffness.shape[0]
+        seq.add(hinge_forces, self.threads(count),
+                [positions, m.hinge_indices, m.hinge_rest_angle, m.hinge_stiffness, m.hinge_cap, self.chunk,
+                 count, forces])
 
     def spring_arrays(self):
         """(indices, rest_length, stiffness, count) the spring kernels should read."""

@@ -15,7 +15,7 @@ from ..kernels.collision import cylinder_push_out
 from ..kernels.gravity import gravity_forces
 from ..kernels.residual import residual_link_forces
 from ..kernels.springs import spring_forces
-from ..sim.stability import StepLimit, stable_time_step
+from ..sim.stability import ElementRates, StepLimit, damped_step
 from .base import SolverBase
 from .launches import LaunchSequence
 
@@ -44,9 +44,17 @@ class ImplicitEulerSolver(SolverBase):
 
     @classmethod
     def step_limit(cls, model) -> StepLimit:
-        """No stability limit (infinite step); node and omega_max as for the explicit step."""
-        explicit = stable_time_step(model)
-        return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
+        """No stability limit (infinite step) for the springs, links and foundation; node and
+        omega_max as for the explicit step. The bending, when the sheet has any, is explicit
+        (the hinge forces at the step's start): its own limit (``ElementRates.bending_bounds``,
+        semi-implicit Euler's formula with the implicit damping)."""
+        rates = ElementRates(model)
+        explicit = rates.limit()
+        (bend_mass, node), (bend_damping, _) = rates.bending_bounds()
+        if bend_mass <= 0:
+            return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
+        return StepLimit(damped_step(bend_mass, bend_damping), 2.0 / math.sqrt(bend_mass), node,
+                         explicit.omega_max)
 
     def _derive(self) -> None:
         super()._derive()
@@ -71,6 +79,7 @@ class ImplicitEulerSolver(SolverBase):
         if links:
             seq.add(residual_link_forces, m.link_count,
                     [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
+        self.add_hinge_forces(seq, x_in, forces)  # explicit: see step_limit
         if self.gravity is not None:
             seq.add(gravity_forces, n, [m.node_mass, m.node_flags, self.gravity, forces])
 

@@ -1,4 +1,4 @@
-"""Semi-implicit Euler: springs, residual links, gravity, foundation, implicit damping, tool push-out."""
+"""Semi-implicit Euler: springs, residual links, bending, gravity, foundation, implicit damping, tool push-out."""
 
 from __future__ import annotations
 
@@ -28,10 +28,10 @@ class SemiImplicitSolver(SolverBase):
     def _extent(self) -> tuple:
         """Launches span the arrays' capacity (the kernels skip dead and unused slots), so an
         edit within capacity keeps the recorded launches: (node capacity, spring slots read,
-        spring arrays read, whether links are launched)."""
+        spring arrays read, whether links are launched, hinge arrays read)."""
         m = self.model
         indices = self.spring_arrays()[0]
-        return (m.node_mass.shape[0], indices.shape[0] // 2, indices.ptr, self._links_on())
+        return (m.node_mass.shape[0], indices.shape[0] // 2, indices.ptr, self._links_on(), m.hinge_indices.ptr)
 
     def _links_on(self) -> bool:
         return self.residual_stress and (self.model.link_count > 0 or self.links_expected)
@@ -46,6 +46,7 @@ class SemiImplicitSolver(SolverBase):
         if self._links_on():
             seq.add(residual_link_forces, m.link_force.shape[0],
                     [state_in.positions, m.link_indices, m.link_force, m.link_smoothing, forces])
+        self.add_hinge_forces(seq, state_in.positions, forces)
         node = integrate_kernel(self.gravity is not None, self.collision, self.foundation)
         nodes = m.node_mass.shape[0]
         seq.add(node, self.threads(nodes),

@@ -27,14 +27,14 @@ class XPBDSolver(SolverBase):
 
     @classmethod
     def step_limit(cls, model) -> StepLimit:
-        """The limit of the explicit part alone: residual links and the foundation (infinite
-        without either).
+        """The limit of the explicit part alone: residual links, the foundation and the bending
+        (infinite without any).
 
         XPBD damps after the solve, so the explicit prediction ``x + h v + h^2 f / m`` is not
         damped within its own step, and damping lowers the limit instead of raising it as in
         semi-implicit Euler: see ``xpbd_step_limits``.
         """
-        if not model.link_count and model.foundation_stiffness <= 0:
+        if not model.link_count and model.foundation_stiffness <= 0 and not model.hinge_table.live_count:
             explicit = stable_time_step(model)
             return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
         sums = node_stiffness_sums(_LinksOnly(model))
@@ -69,6 +69,7 @@ class XPBDSolver(SolverBase):
         if self.residual_stress and m.link_count:
             seq.add(residual_link_forces, m.link_count,
                     [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
+        self.add_hinge_forces(seq, x_in, forces)
         gravity = self.gravity if self.gravity is not None else wp.vec3(0.0)
         seq.add(K.predict_kernel(self.gravity is not None, self.foundation), nt,
                 [x_in, state_in.velocities, forces, m.node_mass, m.node_damping, m.node_flags,
