@@ -272,15 +272,20 @@ def _nearest_around(points: np.ndarray, alive: np.ndarray, targets: np.ndarray, 
         margin *= 2.0
 
 
-def _serve(conn, model: TissueModel, settings: CutSettings, cpus: set[int] | None, log_level: int) -> None:
-    """The worker's loop: build the Cutter, then answer events and calls until told to stop;
-    each answer carries the seconds the worker spent on it. Ctrl-C reaches the loop's whole
-    process group: the worker leaves it to the loop, which stops it (or it ends when the pipe
-    closes). Warp logs at the loop's level (``log_level``: a quiet CLI stays quiet)."""
+def _serve(conn, settings: CutSettings, cpus: set[int] | None, log_level: int) -> None:
+    """The worker's loop: receive the model, build the Cutter, then answer events and calls
+    until told to stop; each answer carries the seconds the worker spent on it. Ctrl-C reaches
+    the loop's whole process group: the worker leaves it to the loop, which stops it (or it ends
+    when the pipe closes). Warp logs at the loop's level (``log_level``: a quiet CLI stays
+    quiet)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     wp.config.log_level = log_level
     if cpus:
         os.sched_setaffinity(0, cpus)
+    try:
+        model = conn.recv()
+    except EOFError:  # the loop has gone
+        return
     try:
         host = _ReplicaHost(model)
         cutter = Cutter(model, settings, "cpu")
@@ -389,8 +394,10 @@ class BackgroundCutter:
         """CPUs the worker runs on (None: wherever the loop's process may run)."""
         context = multiprocessing.get_context("spawn")  # no copy of Warp's state, on every OS
         self._conn, child = context.Pipe()
+        # the model goes through the pipe, not the process's arguments: a worker that dies while
+        # starting would leave a large argument's write blocked for ever
         self._process = context.Process(
-            target=_serve, args=(child, model, self.settings, self.cpus, wp.config.log_level),
+            target=_serve, args=(child, self.settings, self.cpus, wp.config.log_level),
             name="warp_cut-cutter", daemon=True)
         self._process.start()
         child.close()
@@ -420,6 +427,11 @@ class BackgroundCutter:
         """Wait for the worker's "ready"; a worker that dies first is most often a script
         that makes the Simulator at its top level (the spawned worker imports the script)."""
         try:
+            try:
+                self._conn.send(self.model)
+            except OSError as err:  # the worker died before it read the model
+                self._process.join(timeout=1.0)
+                raise CutWorkerError(f"the cut's worker process died (exit code {self._process.exitcode})") from err
             self._expect("ready", timeout=_START_TIMEOUT_S)
         except CutWorkerError as err:
             self.close()
