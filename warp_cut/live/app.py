@@ -70,8 +70,7 @@ def serve(app, what: str) -> None:
     """Start ``app``, print its address, run until Ctrl-C or SIGTERM, stop it cleanly."""
     app.start()
     try:
-        print(f"warp-cut: {what} at {app.url}  (Ctrl-C stops)", flush=True)
-        wait_for_interrupt()
+        wait_for_interrupt(ready=lambda: print(f"warp-cut: {what} at {app.url}  (Ctrl-C stops)", flush=True))
     finally:
         app.stop()
     others = [t.name for t in threading.enumerate() if t.name.startswith("warp-cut-")]

@@ -85,12 +85,16 @@ def server_url(server) -> str:
     return f"http://{f'[{host}]' if ':' in host else host}:{server.get_port()}"
 
 
-def wait_for_interrupt() -> None:
-    """Block until Ctrl-C (SIGINT) or SIGTERM (main thread only)."""
+def wait_for_interrupt(ready=None) -> None:
+    """Block until Ctrl-C (SIGINT) or SIGTERM (main thread only). ``ready`` (no arguments) is
+    called once the signals are caught, e.g. to print the address a user will then interrupt:
+    printed before, a Ctrl-C right after it would land outside and end in a traceback."""
     stop = threading.Event()
     handler = lambda signum, frame: stop.set()  # noqa: E731
     previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
+        if ready is not None:
+            ready()
         while not stop.wait(0.5):
             pass
     finally:
