@@ -43,6 +43,7 @@ from ..sim.model import TissueModel
 from ..sim.stability import ElementRates, StepLimit
 from ..sim.state import State
 from .classes import NodeClass
+from .flips import flip_slivers
 from .incision import Incision, closest_on_polyline
 from .lip_slots import lips_inside
 from .measures import coverage, incision_width, lip_deviation
@@ -216,7 +217,7 @@ class Cutter:
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
                        "carried_links": 0, "lost_links": 0, "lip_nodes": 0, "lip_nodes_removed": 0,
-                       "new_springs": 0, "removed_fragments": 0, "events": 0}
+                       "new_springs": 0, "removed_fragments": 0, "sliver_flips": 0, "events": 0}
         self.new_triangles: set[int] = set()
         self.contact_path: list[np.ndarray] = []
         self.unfilled_holes = 0
@@ -369,12 +370,29 @@ class Cutter:
         self._reopen_tip(sim, inc)
         inc.open_end = False
         inc.plan_stations(clearance=0.5 * self.spacing)
-        if not (self.editor.report.deleted_triangle_corners or inc.open_chains):
+        if self.editor.report.deleted_triangle_corners or inc.open_chains:
+            report, result, positions = self._stage3(sim, inc, None, defer_slivers=False)
+            self._apply(sim, report, positions)
+            self._count(report, result)
+        else:
             self.editor.finish()
+        if not inc.open_chains:
+            self._flip_slivers(sim)
+
+    def _flip_slivers(self, sim: CutHost) -> None:
+        """Flip the slivers among the triangles the cut made (``warp_cut.cut.flips``), once the
+        tool has left the skin and no hole is open, as an edit of its own."""
+        editor = self.editor
+        editor.begin()
+        positions = NodePositions(self._positions_view(sim))
+        flips = flip_slivers(editor, set(self.new_triangles), positions)
+        report = editor.finish(positions=positions)
+        if not flips:
             return
-        report, result, positions = self._stage3(sim, inc, None, defer_slivers=False)
+        self.totals["sliver_flips"] += flips
         self._apply(sim, report, positions)
-        self._count(report, result)
+        self.new_triangles.update(report.new_triangles)
+        self.new_triangles.difference_update(report.deleted_triangles)
 
     def _retry_holes(self, sim: CutHost) -> None:
         """Fill again the holes a finished incision left open (its fill could find no valid

@@ -1,0 +1,87 @@
+"""Sliver flips after an incision (warp_cut.cut.flips).
+
+Compared against: the quad's geometry (the other diagonal's angles, computed here), the mesh
+checks (winding, springs = edges, masses), the pair's area, and the cases a flip must refuse
+(a partner the cut did not make, a non-convex quad that would fold, a border edge).
+"""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from warp_cut import TissueModel
+from warp_cut.cut.flips import SLIVER_DEG, flip_slivers
+from warp_cut.cut.topology import TopologyEditor
+from warp_cut.mesh.checks import check_mesh
+from warp_cut.mesh.geometry import triangle_areas, triangle_min_angles
+
+
+def quad_model(apex_y: float, far_x: float = 1.0):
+    """Two triangles on the diagonal 0-1 of the quad 0 (0,0), 1 (2,0), 2 (far_x, apex_y),
+    3 (1,-1) [mm]: a sliver when apex_y is small."""
+    points = np.array([[0, 0, 0], [2, 0, 0], [far_x, apex_y, 0], [1, -1, 0]], dtype=float) * 1e-3
+    tri = np.array([[0, 1, 2], [1, 0, 3]])
+    return TissueModel.from_triangles(points, tri, pinned="none")
+
+
+def flipped(model, candidates):
+    editor = TopologyEditor(model)
+    editor.begin()
+    flips = flip_slivers(editor, set(candidates), model.points)
+    report = editor.finish(positions=model.points)
+    return flips, report
+
+
+def test_a_sliver_across_the_diagonal_is_flipped_and_the_mesh_stays_valid():
+    model = quad_model(0.1)  # apex 0.1 mm above a 2 mm diagonal: angles of about 5.7 deg
+    before = triangle_min_angles(model.points, model.triangles).min()
+    area = triangle_areas(model.points, model.triangles).sum()
+    assert before < SLIVER_DEG
+    flips, report = flipped(model, [0, 1])
+    assert flips == 1 and len(report.new_triangles) == 2
+    after = triangle_min_angles(model.points, model.triangles)
+    expected = triangle_min_angles(model.points, [[0, 3, 2], [3, 1, 2]]).min()  # the other diagonal
+    assert after.min() == pytest.approx(expected)
+    assert after.min() > before
+    assert triangle_areas(model.points, model.triangles).sum() == pytest.approx(area)
+    assert {tuple(sorted(s)) for s in model.springs.tolist()} == {(0, 2), (0, 3), (1, 2), (1, 3), (2, 3)}
+    assert check_mesh(model.points, model.triangles, model.springs, active=model.active).valid
+
+
+def test_no_flip_of_a_triangle_the_cut_did_not_make():
+    model = quad_model(0.1)
+    flips, _ = flipped(model, [0])  # the partner is the tissue's own triangle
+    assert flips == 0 and len(model.triangles) == 2
+
+
+def test_no_flip_that_would_fold_a_non_convex_quad():
+    model = quad_model(0.1, far_x=2.6)  # the apex beyond the diagonal's end: the quad is not convex
+    flips, _ = flipped(model, [0, 1])
+    assert flips == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_flips_on_a_jittered_sheet_never_lower_the_smallest_angle_nor_break_the_mesh(seed):
+    rng = np.random.default_rng(seed)
+    n = 6
+    grid = np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2).astype(float)
+    inner = np.all((grid > 0) & (grid < n - 1), axis=1)
+    grid[inner] += rng.uniform(-0.45, 0.45, (inner.sum(), 2))
+    points = np.column_stack([grid * 1e-3, rng.uniform(-2e-5, 2e-5, len(grid))])
+    tri = []
+    for r in range(n - 1):
+        for c in range(n - 1):
+            a, b, d, e = r * n + c, r * n + c + 1, (r + 1) * n + c, (r + 1) * n + c + 1
+            tri += [[a, b, e], [a, e, d]] if rng.random() < 0.5 else [[a, b, d], [b, e, d]]
+    model = TissueModel.from_triangles(points, np.array(tri), pinned="none")
+    flat = points * [1, 1, 0]  # the area seen from above is kept by flips of convex quads
+    area = triangle_areas(flat, model.triangles).sum()
+    before = np.sort(triangle_min_angles(points, model.triangles))
+    flipped(model, range(len(tri)))
+    after = np.sort(triangle_min_angles(points, model.triangles))
+    report = check_mesh(model.points, model.triangles, model.springs, active=model.active)
+    assert not [p for p in report.problems if not p.startswith("sliver")], report.problems
+    assert triangle_areas(flat, model.triangles).sum() == pytest.approx(area, rel=1e-9)
+    assert after[0] >= before[0] - 1e-9  # each flip raises its pair's smallest angle
