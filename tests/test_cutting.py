@@ -21,7 +21,7 @@ from warp_cut.cut.classes import NodeClass, SpringClass
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh.checks import check_mesh, triangle_min_angles
-from warp_cut.mesh.surfaces import cylinder, flat_grid, jittered_delaunay
+from warp_cut.mesh.surfaces import cylinder, flat_grid, jittered_delaunay, saddle
 from warp_cut.sim import strokes
 from warp_cut.verify.stroke_check import run_stroke
 from warp_cut.verify.validity import cut_problems
@@ -700,6 +700,36 @@ def test_no_station_falls_due_where_its_lips_would_be_inside_the_tool():
                           0.003830324950994517, 0.015223373129425647)
     result = one_valid_incision(sim, surface, path, 53.9895543132858, 0.0030763593871296494, 0.0010936698618277225,
                                 0.017234473619472394, 0.035057667163253474)
+    assert result.unfilled_holes == 0
+    assert result.coverage >= 0.95
+
+
+def test_lips_twisted_over_each_other_and_tissue_in_the_slit_are_cleared_once_the_tool_has_gone():
+    """A tool twice the spacing thick (r 3.6 mm on a 1.8 mm saddle mesh, 33 degrees, an event
+    every step) twisted the slit's last lip pair over each other (each on the other's side of
+    the curve) and left a tissue node 0.25 mm from the curve: the 18 mm hole ahead could not be
+    filled, and was too long to close over (one hole after the stroke; fuzz seed 1). Once the
+    tool has gone, nodes standing in the slit go and their stations get new lips."""
+    surface = saddle(0.04850410133548761, -18.611081449217387, 0.0018413581101183233, jitter=0.0, seed=600819021)
+    sim = supported_sim(surface, 0.0)
+    path = strokes.line([-0.007462169436228863, -0.004850410133548758], 6.01835789222103, 0.021744798582825627)
+    result = one_valid_incision(sim, surface, path, 32.59183736215099, 0.0036101944392162603, 0.003186312283306847,
+                                0.014123057060406424, 0.04633956705363204)
+    assert result.unfilled_holes == 0
+    assert result.coverage >= 0.95
+
+
+def test_a_lip_pushed_across_the_curve_that_closes_a_hole_on_itself_is_cleared_once_the_tool_has_gone():
+    """Under XPBD on a saddle (r 2.3 mm, 2 mm mesh, zigzag) a left lip was pushed 1.3 mm onto
+    the right side, where it closed the hole ahead of it into a loop through itself: a closed
+    border without the slit's start, which no fill offers lips to (one hole; fuzz seed
+    20261202). Once the tool has gone, that lip goes and its station gets new lips."""
+    surface = saddle(0.049006510705194926, 24.986658289575296, 0.002036486681735016, jitter=0.0, seed=1506422551)
+    sim = supported_sim(surface, 0.0025079989036422314, integrator="xpbd")
+    path = strokes.zigzag([0.015314534595373411, -0.0052506975755565975], 2.806042396499133, 0.023402563555900126,
+                          0.0034542137868626473, 0.0220880207531029)
+    result = one_valid_incision(sim, surface, path, 47.34991826731071, 0.0022531012167335304, 0.0028713530799079024,
+                                0.01911516138005591, 0.03986860723458417)
     assert result.unfilled_holes == 0
     assert result.coverage >= 0.95
 

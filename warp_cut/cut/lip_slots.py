@@ -131,6 +131,27 @@ class LipSlots:
         return next((v for v, s, d in zip(ends, now, dist) if s != sides[v] and d > self.incision.lip_offset),
                     None)
 
+    def crossed(self, node) -> bool:
+        """True if ``node`` is an interior station's lip lying more than the lip offset on the
+        other side of the curve."""
+        slot = next(((side, station) for n, _, side, station in self.slots if n == node), None)
+        if slot is None or slot[1] < 0:
+            return False
+        _, now, dist = self.incision.project(self.positions[[node]])
+        return bool(now[0] != slot[0] and dist[0] > self.incision.lip_offset)
+
+    def twisted_pair(self, chain) -> list[int]:
+        """The two lips of one station at the ends of an open ``chain``, each lying on the
+        other's side of the curve (a thick tool twisted the pair over each other), or []."""
+        if chain[0] == chain[-1]:
+            return []
+        slot_of = {n: (side, station) for n, _, side, station in self.slots if n >= 0 and station >= 0}
+        ends = [chain[0], chain[-1]]
+        if not all(v in slot_of for v in ends) or slot_of[ends[0]][1] != slot_of[ends[1]][1]:
+            return []
+        _, now, _ = self.incision.project(self.positions[ends])
+        return ends if all(s != slot_of[v][0] for v, s in zip(ends, now)) else []
+
     @property
     def lip_nodes(self) -> set:
         """The live lip nodes of the slots, and those released (still on the slit's border)."""

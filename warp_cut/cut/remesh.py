@@ -315,11 +315,12 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
         start (the slit's end was lost) is closed over without lips.
     """
     _drop_islands(editor, removed_corners, open_chains)
-    chains = hole_chains(editor, removed_corners, open_chains)
-    slots = LipSlots(editor, incision, positions)
+    chains, slots, pieces = _hole_pieces(editor, incision, removed_corners, positions, open_chains)
+    in_slit = _in_the_slit(pieces, incision, positions, slots) if not incision.open_end else []
+    if in_slit:  # once the tool has gone: they go, their stations get new lips
+        editor.delete_nodes(in_slit)
+        chains, slots, pieces = _hole_pieces(editor, incision, removed_corners, positions, open_chains)
     triangles, unfilled, waiting, under_tool = [], [], [], False
-    pieces = [piece for chain in chains
-              for piece in _split_at_lips(_start_at_slit_start(chain, incision, slots), slots)]
     slots.projected([v for piece in pieces for v in piece])  # at once: every fill asks of them
     for chain in pieces:
         notch = _notch(editor, chain, slots)
@@ -351,6 +352,32 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
     classes = _classify(editor, incision, triangles, positions)
     return {"created": slots.created, "triangles": triangles, "chains": len(chains),
             "unfilled": unfilled, "waiting": waiting, "under_tool": under_tool, **classes}
+
+
+def _hole_pieces(editor, incision, removed_corners, positions, open_chains):
+    """The hole's border chains, the lip slots, and the chains split at lips (``pieces``)."""
+    chains = hole_chains(editor, removed_corners, open_chains)
+    slots = LipSlots(editor, incision, positions)
+    pieces = [piece for chain in chains
+              for piece in _split_at_lips(_start_at_slit_start(chain, incision, slots), slots)]
+    return chains, slots, pieces
+
+
+def _in_the_slit(pieces, incision, positions, slots: LipSlots) -> list[int]:
+    """Nodes on the hole's border that stand in the slit, where no fill can pass them: the two
+    lips of a station twisted over each other (``LipSlots.twisted_pair``), a lip pushed across
+    the curve (more than the lip offset) that closes a hole on itself (``LipSlots.crossed``),
+    and tissue nodes nearer the curve than the lip offset along it (pulled there after the
+    tool passed)."""
+    nodes = [v for piece in pieces for v in slots.twisted_pair(piece)]
+    nodes += [piece[0] for piece in pieces if piece[0] == piece[-1] and slots.crossed(piece[0])]
+    lips = slots.lip_nodes
+    border = sorted({v for piece in pieces for v in piece if v not in lips} - set(nodes))
+    if border:
+        u, _, dist = incision.project(positions[border])
+        inside = (dist < incision.lip_offset) & (u > incision.spacing) & (u < incision.length - incision.spacing)
+        nodes += [v for v, hit in zip(border, inside) if hit]
+    return nodes
 
 
 def _fill_releasing_pushed_lip(chain, editor, incision, positions, slots: LipSlots, notch: bool, tool,
