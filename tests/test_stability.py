@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from warp_cut import Material, SimulationUnstable, Simulator, TissueModel, stable_time_step
+from warp_cut.cut.topology import TopologyEditor
 from warp_cut.mesh.triangulate import delaunay
 from warp_cut.sim.stability import ElementRates, node_stiffness_sums
 from warp_cut.solvers import INTEGRATORS
@@ -346,3 +347,19 @@ def test_xpbd_run_on_either_side_of_its_limit(scale, grows):
     sim.step(200)
     drift = np.abs(sim.positions[1]).max()
     assert (drift > 100 * 1e-6) if grows else (drift < 1e-6)
+
+
+def test_element_rates_follow_an_edit_that_makes_and_deletes_nodes_past_the_capacity():
+    """A fill that is opened back a station makes lip nodes and deletes them in one edit; their
+    slots may lie past the capacity the rates last grew to (an IndexError before)."""
+    model = TissueModel.from_patch((0.01, 0.01), 0.002, material=Material(foundation_stiffness=1e6))
+    rates = ElementRates(model)
+    editor = TopologyEditor(model)
+    editor.begin()
+    spare = model.node_table.capacity - model.node_table.count
+    made = editor.add_nodes(np.zeros((spare + 3, 3)))
+    editor.delete_nodes(made)
+    editor.finish()
+    rates.update(editor.touched_nodes | set(made.tolist()), editor)
+    fresh = ElementRates(model).limit()
+    assert rates.limit().step == pytest.approx(fresh.step, rel=1e-12)

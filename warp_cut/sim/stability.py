@@ -196,6 +196,7 @@ class ElementRates:
     def update(self, nodes, editor) -> None:
         """Rate again the elements at ``nodes`` (node slots whose springs, links, triangles or
         mass changed), using the editor's adjacency, and drop those its report deleted."""
+        self._grow()  # nodes made and deleted again in one edit may lie past the last capacity
         report = editor.report
         for kind, dead in (("triangles", report.deleted_triangles), ("springs", report.deleted_springs),
                            ("links", report.deleted_links), ("foundation", report.deleted_nodes)):
