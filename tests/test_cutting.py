@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 from warp_cut import Material, Simulator, TissueModel, Tool, stable_time_step
 from warp_cut.cut.classes import NodeClass, SpringClass
 from warp_cut.cut.cutter import CutSettings
+from warp_cut.cut.topology import TopologyEditor
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh.checks import check_mesh, triangle_min_angles
 from warp_cut.mesh.surfaces import cylinder, flat_grid, jittered_delaunay, saddle
@@ -732,6 +733,24 @@ def test_a_lip_pushed_across_the_curve_that_closes_a_hole_on_itself_is_cleared_o
                                 0.01911516138005591, 0.03986860723458417)
     assert result.unfilled_holes == 0
     assert result.coverage >= 0.95
+
+
+def test_a_thin_tool_crossing_a_wide_earlier_opening_deep_in_the_skin_stays_one_incision():
+    """A 0.5 mm tool 3 mm deep crosses a 6 mm window cut out of a flat sheet earlier: no skin
+    meets its axis while it crosses, but its tip stays below the skin around it, so the
+    incision waits and goes on beyond the window (two incisions before; fuzz seed 1 split two
+    strokes so)."""
+    surface = flat_grid(0.04, 0.002)
+    model = TissueModel.from_surface(surface, material=Material(foundation_stiffness=1e6))
+    editor = TopologyEditor(model)
+    editor.begin()
+    window = np.flatnonzero((np.abs(model.points[:, 0]) < 0.003) & (np.abs(model.points[:, 1]) < 0.006))
+    editor.delete_nodes(window)
+    editor.finish()
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(interval=0.0))
+    path = strokes.line([-0.012, 0.0005], 0.0, 0.024)
+    result = one_valid_incision(sim, surface, path, 60.0, 0.0005, 0.003, 0.02, 0.04)
+    assert result.unfilled_holes == 0
 
 
 def s_curve_tool(k: int) -> Tool:

@@ -246,8 +246,8 @@ class Cutter:
             self._start_where_the_blade_entered(sim, poses)
             return
         crossing = self.crossing(sim, tool)
-        if crossing is None and self._in_own_opening(tool):
-            return  # no skin around the axis yet but the incision's own opening: wait
+        if crossing is None and (self._in_own_opening(tool) or self._through_an_opening(sim, tool)):
+            return  # no skin around the axis, but the blade is still down in the tissue: wait
         if crossing is None or crossing.tip_height > self.exit_margin:
             self.end_incision(sim)  # the tool has left the skin: this incision is complete
         elif crossing.inside and not self.current.retraces(crossing.point, self.current.sweep_radius):
@@ -265,6 +265,21 @@ class Cutter:
         _, _, _, from_axis = closest_on_polyline(end[None], np.stack([tool.p0, tool.p1]))
         reach = 2.0 * self.current.sweep_radius + self.spacing
         return bool(from_axis[0] <= reach and float((tool.p0 - end) @ normal) <= self.exit_margin)
+
+    def _through_an_opening(self, sim: CutHost, tool: Tool) -> bool:
+        """True if the tool passes through an opening in the skin (an earlier wound) with its
+        tip down in the tissue: skin around its axis (``_skin_near``: live nodes within 1.5
+        radii + 3 spacings), and the tip not above it by more than ``exit_margin`` along the skin's
+        normal where the incision last cut (median over those nodes). A thin tool crossing a
+        wide earlier wound has no skin at its axis there, but has not left the skin: the
+        incision goes on where the blade meets skin again. A blade the skin fell away from, or
+        lifted out, has."""
+        x = self._positions_view(sim)
+        nodes, _ = self._skin_near(sim, tool, x)
+        if len(nodes) < 3:
+            return False
+        heights = (tool.p0 - x[nodes].astype(np.float64)) @ self.current.normals[-1]
+        return bool(np.median(heights) <= self.exit_margin)
 
     def catch_up(self, poses: list[Tool]) -> None:
         """Take the tool poses of steps whose ``after_step`` this cutter did not see (a cutter
