@@ -8,9 +8,9 @@ and cuts the stroke with ``sim.step(tool=pose)`` every 1 ms, as a user does
 (``warp_cut.verify.validity.cut_problems``: indices, duplicates, degenerate triangles, winding,
 manifold edges, springs = edges, masses and their balance, links between live nodes, the device
 mirror, finite state) are hard assertions, and so are the cut's own properties: no exception,
-one incision per stroke. Three are expected failures (``xfail``, each naming a case that fails):
-no hole open once the tool has left, coverage >= 0.95, no triangle wound against the surface
-when made. (``make fuzz`` runs thousands of events, several strokes per mesh, crossing earlier cuts;
+one incision per stroke, no hole open once the tool has left. Two are expected failures
+(``xfail``, each naming a case that fails): coverage >= 0.95, no triangle wound against the
+surface when made. (``make fuzz`` runs thousands of events, several strokes per mesh, crossing earlier cuts;
 its report says where the cut still falls short.)
 """
 
@@ -121,10 +121,6 @@ def test_one_incision_per_stroke(case):
     assert result.incisions == 1
 
 
-@pytest.mark.xfail(strict=False, reason="a tool thicker than the spacing and leaning far over can push a tip lip "
-                                        "across the curve, and the hole ahead of it stays unfilled (1 of 175 "
-                                        "strokes of make fuzz: --case 876673636 --kind saddle --strokes 1); the "
-                                        "examples drawn here all pass on this code")
 @fuzz
 def test_no_hole_open_after_the_stroke(case):
     _, result = cut(case)

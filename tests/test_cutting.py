@@ -753,6 +753,23 @@ def test_a_thin_tool_crossing_a_wide_earlier_opening_deep_in_the_skin_stays_one_
     assert result.unfilled_holes == 0
 
 
+def test_a_hole_no_fill_closes_once_the_tool_has_gone_is_opened_back_a_station_and_filled():
+    """A thin tool (r 0.6 mm, lip offset 0.15 mm) dragged the last lips of a slit on a coarse
+    jittered saddle (2.7 mm, XPBD, no support) forward past the tissue beside them: the hole
+    ahead could be neither filled nor closed over (one hole; fuzz seed 20261203). Once the
+    tool has gone its end lips go and their stations get new ones; the fill then passes."""
+    surface = saddle(0.04582273742117599, 26.66958222595919, 0.0026863294259437806, jitter=0.4, seed=942065371)
+    model = TissueModel.from_surface(surface)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, integrator="xpbd", gravity=None,
+                    cutting=CutSettings(interval=0.023303958466318435))
+    path = strokes.arc([0.0043878311944394845, -0.00024049369873647123], 2.2096848650338807, 0.010790208620281965,
+                       0.024230242039467942)
+    result = one_valid_incision(sim, surface, path, 72.24158263016193, 0.0005852419748600667, 0.0035100470154765043,
+                                0.03604300028536338, 0.04108173560605298)
+    assert result.unfilled_holes == 0
+    assert result.coverage >= 0.85
+
+
 def s_curve_tool(k: int) -> Tool:
     """Tick k of a scalpel (r 1 mm) leaning back 60 degrees along -x: 200 ticks going 8 mm in,
     then 2 cm/s along y = 8 mm sin(pi x / 2 cm) from x = -2 cm: on the rising part of the

@@ -131,14 +131,26 @@ class LipSlots:
         return next((v for v, s, d in zip(ends, now, dist) if s != sides[v] and d > self.incision.lip_offset),
                     None)
 
-    def crossed(self, node) -> bool:
-        """True if ``node`` is an interior station's lip lying more than the lip offset on the
-        other side of the curve."""
+    def crossed(self, node, beyond: float | None = None) -> bool:
+        """True if ``node`` is an interior station's lip lying on the other side of the curve,
+        more than ``beyond`` [m] (the lip offset by default) from it."""
         slot = next(((side, station) for n, _, side, station in self.slots if n == node), None)
         if slot is None or slot[1] < 0:
             return False
         _, now, dist = self.incision.project(self.positions[[node]])
-        return bool(now[0] != slot[0] and dist[0] > self.incision.lip_offset)
+        return bool(now[0] != slot[0] and dist[0] > (self.incision.lip_offset if beyond is None else beyond))
+
+    def crossed_end(self, chain) -> list[int]:
+        """A lip on the other side of the curve (any distance) at an end of an open ``chain``
+        whose two ends are interior-station lips of one side: the hole it closes off is the
+        slit's stretch ahead, which no station is offered to. [] if none."""
+        if chain[0] == chain[-1]:
+            return []
+        sides = {n: side for n, _, side, station in self.slots if n >= 0 and station >= 0}
+        ends = [chain[0], chain[-1]]
+        if not all(v in sides for v in ends) or sides[ends[0]] != sides[ends[1]]:
+            return []
+        return [v for v in ends if self.crossed(v, beyond=0.0)][:1]
 
     def twisted_pair(self, chain) -> list[int]:
         """The two lips of one station at the ends of an open ``chain``, each lying on the

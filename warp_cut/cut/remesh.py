@@ -315,11 +315,41 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
         start (the slit's end was lost) is closed over without lips.
     """
     _drop_islands(editor, removed_corners, open_chains)
-    chains, slots, pieces = _hole_pieces(editor, incision, removed_corners, positions, open_chains)
-    in_slit = _in_the_slit(pieces, incision, positions, slots) if not incision.open_end else []
-    if in_slit:  # once the tool has gone: they go, their stations get new lips
-        editor.delete_nodes(in_slit)
+    created, triangles = [], []
+    for attempt in range(1 + _REOPENED_STATIONS):
         chains, slots, pieces = _hole_pieces(editor, incision, removed_corners, positions, open_chains)
+        in_slit = _in_the_slit(pieces, incision, positions, slots) if not incision.open_end and not attempt else []
+        if in_slit:  # once the tool has gone: they go, their stations get new lips
+            editor.delete_nodes(in_slit)
+            chains, slots, pieces = _hole_pieces(editor, incision, removed_corners, positions, open_chains)
+        made, unfilled, waiting, under_tool = _fill_pieces(pieces, editor, incision, positions, slots, tool,
+                                                           min_angle_deg, defer_slivers)
+        created += slots.created
+        triangles += made
+        if incision.open_end or not unfilled:
+            break
+        # once the tool has gone, a hole no fill closes is opened back by one station: its end
+        # lips go (their stations get new lips), and the fill is tried again
+        ends = [v for chain in unfilled if chain[0] != chain[-1] for v in (chain[0], chain[-1])
+                if v in slots.lip_nodes and editor.model.active[v]]
+        if not ends:
+            break
+        editor.delete_nodes(ends)
+    triangles = [tri for tri in triangles if _exists(editor, tri)]  # a reopened station's went
+    classes = _classify(editor, incision, triangles, positions)
+    return {"created": [v for v in created if editor.model.active[v]], "triangles": triangles,
+            "chains": len(chains), "unfilled": unfilled, "waiting": waiting, "under_tool": under_tool, **classes}
+
+
+_REOPENED_STATIONS = 2
+"""Times a hole no fill closes once the tool has gone is opened back by one station."""
+
+
+def _fill_pieces(pieces, editor, incision, positions, slots: LipSlots, tool, min_angle_deg: float,
+                 defer_slivers: bool):
+    """Fill each hole border of ``pieces`` (``_fill_releasing_pushed_lip``, else close it over
+    once the tool has gone): (triangles made, unfilled chains, waiting chains, whether a
+    chain waits for the tool)."""
     triangles, unfilled, waiting, under_tool = [], [], [], False
     slots.projected([v for piece in pieces for v in piece])  # at once: every fill asks of them
     for chain in pieces:
@@ -349,9 +379,7 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
             tri = tuple(made.get(v, v) for v in tri)
             triangles.append(tri)
             editor.add_triangle(tri, positions, SpringClass.RED)
-    classes = _classify(editor, incision, triangles, positions)
-    return {"created": slots.created, "triangles": triangles, "chains": len(chains),
-            "unfilled": unfilled, "waiting": waiting, "under_tool": under_tool, **classes}
+    return triangles, unfilled, waiting, under_tool
 
 
 def _hole_pieces(editor, incision, removed_corners, positions, open_chains):
@@ -365,11 +393,12 @@ def _hole_pieces(editor, incision, removed_corners, positions, open_chains):
 
 def _in_the_slit(pieces, incision, positions, slots: LipSlots) -> list[int]:
     """Nodes on the hole's border that stand in the slit, where no fill can pass them: the two
-    lips of a station twisted over each other (``LipSlots.twisted_pair``), a lip pushed across
-    the curve (more than the lip offset) that closes a hole on itself (``LipSlots.crossed``),
-    and tissue nodes nearer the curve than the lip offset along it (pulled there after the
-    tool passed)."""
-    nodes = [v for piece in pieces for v in slots.twisted_pair(piece)]
+    lips of a station twisted over each other (``LipSlots.twisted_pair``), a lip on the other
+    side of the curve at an end of a hole both of whose ends are lips of its side
+    (``LipSlots.crossed_end``), a lip pushed across the curve (more than the lip offset) that
+    closes a hole on itself (``LipSlots.crossed``), and tissue nodes nearer the curve than the
+    lip offset along it (pulled there after the tool passed)."""
+    nodes = [v for piece in pieces for v in slots.twisted_pair(piece) + slots.crossed_end(piece)]
     nodes += [piece[0] for piece in pieces if piece[0] == piece[-1] and slots.crossed(piece[0])]
     lips = slots.lip_nodes
     border = sorted({v for piece in pieces for v in piece if v not in lips} - set(nodes))
