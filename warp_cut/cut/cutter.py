@@ -401,9 +401,9 @@ class Cutter:
         editor.begin()
         positions = NodePositions(self._positions_view(sim))
         flips = flip_slivers(editor, set(self.new_triangles), positions)
-        report = editor.finish(positions=positions)
         if not flips:
-            return
+            return  # nothing edited: no version bump, nothing for a background loop to mirror
+        report = editor.finish(positions=positions)
         self.totals["sliver_flips"] += flips
         self._apply(sim, report, positions)
         self.new_triangles.update(report.new_triangles)
