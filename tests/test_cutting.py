@@ -610,6 +610,15 @@ def supported_sim(surface, interval: float, integrator: str = "semi_implicit") -
     return Simulator(model, dt=1e-3, device=DEVICE, integrator=integrator, cutting=CutSettings(interval=interval))
 
 
+def assert_no_hole_after(sim, surface, path, tool, min_coverage: float = 0.95):
+    """Cut ``path`` with ``tool`` (tilt [deg], radius, depth [m], speed [m/s], length [m]) as one
+    valid incision (``one_valid_incision``); no hole is left open after it, and it covers at
+    least ``min_coverage`` of the stroke."""
+    result = one_valid_incision(sim, surface, path, *tool)
+    assert result.unfilled_holes == 0
+    assert result.coverage >= min_coverage
+
+
 def one_valid_incision(sim, surface, path, tilt_deg, radius, depth, speed, tool_length):
     """Cut ``path`` with a tool of the given tilt [deg], radius, depth [m], speed [m/s] and
     length [m]; assert no exception, no edit error (folds by the motion aside) and one
@@ -673,10 +682,8 @@ def test_a_lip_pushed_across_the_curve_gives_its_station_a_new_lip():
     sim = supported_sim(surface, 0.019591422619893557)
     path = strokes.zigzag([-0.007880503116256083, -0.004513425162780224], 1.1241026628893132, 0.021285099203865235,
                           0.004491403806158755, 0.028386547405885997)
-    result = one_valid_incision(sim, surface, path, 68.48897595123483, 0.003045800446927011, 0.0028847832181556786,
-                                0.016415276483890354, 0.04411799822184638)
-    assert result.unfilled_holes == 0
-    assert result.coverage >= 0.95
+    assert_no_hole_after(sim, surface, path, (68.48897595123483, 0.003045800446927011, 0.0028847832181556786,
+                                              0.016415276483890354, 0.04411799822184638), min_coverage=0.95)
 
 
 def test_no_station_falls_due_where_its_lips_would_be_inside_the_tool():
@@ -691,10 +698,8 @@ def test_no_station_falls_due_where_its_lips_would_be_inside_the_tool():
     sim = supported_sim(surface, 0.0, integrator="implicit_euler")
     path = strokes.zigzag([0.0008060366074343003, -0.028124999999999997], 3.7427427960919704, 0.01476605955999952,
                           0.003830324950994517, 0.015223373129425647)
-    result = one_valid_incision(sim, surface, path, 53.9895543132858, 0.0030763593871296494, 0.0010936698618277225,
-                                0.017234473619472394, 0.035057667163253474)
-    assert result.unfilled_holes == 0
-    assert result.coverage >= 0.95
+    assert_no_hole_after(sim, surface, path, (53.9895543132858, 0.0030763593871296494, 0.0010936698618277225,
+                                              0.017234473619472394, 0.035057667163253474), min_coverage=0.95)
 
 
 def test_lips_twisted_over_each_other_and_tissue_in_the_slit_are_cleared_once_the_tool_has_gone():
@@ -706,10 +711,8 @@ def test_lips_twisted_over_each_other_and_tissue_in_the_slit_are_cleared_once_th
     surface = saddle(0.04850410133548761, -18.611081449217387, 0.0018413581101183233, jitter=0.0, seed=600819021)
     sim = supported_sim(surface, 0.0)
     path = strokes.line([-0.007462169436228863, -0.004850410133548758], 6.01835789222103, 0.021744798582825627)
-    result = one_valid_incision(sim, surface, path, 32.59183736215099, 0.0036101944392162603, 0.003186312283306847,
-                                0.014123057060406424, 0.04633956705363204)
-    assert result.unfilled_holes == 0
-    assert result.coverage >= 0.95
+    assert_no_hole_after(sim, surface, path, (32.59183736215099, 0.0036101944392162603, 0.003186312283306847,
+                                              0.014123057060406424, 0.04633956705363204), min_coverage=0.95)
 
 
 def test_a_lip_pushed_across_the_curve_that_closes_a_hole_on_itself_is_cleared_once_the_tool_has_gone():
@@ -721,10 +724,8 @@ def test_a_lip_pushed_across_the_curve_that_closes_a_hole_on_itself_is_cleared_o
     sim = supported_sim(surface, 0.0025079989036422314, integrator="xpbd")
     path = strokes.zigzag([0.015314534595373411, -0.0052506975755565975], 2.806042396499133, 0.023402563555900126,
                           0.0034542137868626473, 0.0220880207531029)
-    result = one_valid_incision(sim, surface, path, 47.34991826731071, 0.0022531012167335304, 0.0028713530799079024,
-                                0.01911516138005591, 0.03986860723458417)
-    assert result.unfilled_holes == 0
-    assert result.coverage >= 0.95
+    assert_no_hole_after(sim, surface, path, (47.34991826731071, 0.0022531012167335304, 0.0028713530799079024,
+                                              0.01911516138005591, 0.03986860723458417), min_coverage=0.95)
 
 
 def test_a_thin_tool_crossing_a_wide_earlier_opening_deep_in_the_skin_stays_one_incision():
@@ -756,10 +757,8 @@ def test_a_hole_no_fill_closes_once_the_tool_has_gone_is_opened_back_a_station_a
                     cutting=CutSettings(interval=0.023303958466318435))
     path = strokes.arc([0.0043878311944394845, -0.00024049369873647123], 2.2096848650338807, 0.010790208620281965,
                        0.024230242039467942)
-    result = one_valid_incision(sim, surface, path, 72.24158263016193, 0.0005852419748600667, 0.0035100470154765043,
-                                0.03604300028536338, 0.04108173560605298)
-    assert result.unfilled_holes == 0
-    assert result.coverage >= 0.85
+    assert_no_hole_after(sim, surface, path, (72.24158263016193, 0.0005852419748600667, 0.0035100470154765043,
+                                              0.03604300028536338, 0.04108173560605298), min_coverage=0.85)
 
 
 def s_curve_tool(k: int) -> Tool:
