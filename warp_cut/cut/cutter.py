@@ -50,6 +50,7 @@ from .measures import coverage, incision_width, lip_deviation
 from .remesh import fill_hole
 from .surface import Crossing, locate_crossing
 from .topology import NodePositions, TopologyEditor
+from .wound_links import carry_links, open_links, separated_by
 
 __all__ = ["CutSettings", "Cutter", "CutHost", "STAGES"]
 
@@ -132,47 +133,6 @@ class CutHost(Protocol):
     def apply_topology_edit(self, new_nodes: np.ndarray, new_positions: np.ndarray,
                             explicit_limit: StepLimit) -> None:
         """Mirror the model's latest edit on the device and update the stable step."""
-
-
-def _crosses(x: np.ndarray, pairs: np.ndarray, a, b, normal) -> np.ndarray:
-    """Mask (s,) of node pairs (s, 2) on either side of the cut line a-b in the surface whose
-    outward normal is ``normal`` (a pair on one side is not separated by the cut)."""
-    if not len(pairs):
-        return np.zeros(0, dtype=bool)
-    lateral = (x[pairs.reshape(-1)] - a) @ np.cross(normal, np.asarray(b, np.float64) - a)
-    return lateral[0::2] * lateral[1::2] < 0.0
-
-
-class _Places:
-    """Where a residual link's node goes when the cut takes it: candidates by side of the
-    incision, lips first."""
-
-    def __init__(self, inc: Incision, positions, lips: list[int], others: list[int], radius: float):
-        self.inc, self.radius = inc, radius
-        self.lip_set = set(lips)
-        self.nodes = np.array(lips + others, dtype=np.int64)
-        self.is_lip = np.arange(len(self.nodes)) < len(lips)
-        self.x = positions[self.nodes] if len(self.nodes) else np.zeros((0, 3))
-        self.sides = inc.project(self.x)[1] if len(self.nodes) else np.zeros(0, np.int64)
-        self.load = {}
-
-    def taking(self, point, exclude=(), lips_only: bool = False) -> int:
-        """The node that takes the place of one at ``point`` [m]: on its side, within the
-        radius, lips before other nodes, the least loaded, the nearest; -1 if none."""
-        if not len(self.nodes):
-            return -1
-        side = self.inc.project(np.asarray(point)[None])[1][0]
-        dist = np.linalg.norm(self.x - point, axis=1)
-        ok = (self.sides == side) & (dist <= self.radius) & ~np.isin(self.nodes, list(exclude))
-        for group in (ok & self.is_lip, ok & ~self.is_lip if not lips_only else ok & False):
-            k = np.flatnonzero(group)
-            if len(k):
-                load = np.array([self.load.get(int(self.nodes[i]), 0) for i in k])
-                k = k[load == load.min()]
-                best = int(self.nodes[k[np.argmin(dist[k])]])
-                self.load[best] = self.load.get(best, 0) + 1
-                return best
-        return -1
 
 
 class Cutter:
@@ -505,7 +465,7 @@ class Cutter:
         side of the line a-b in the skin, whose outward normal is ``normal``) and whose nodes
         survive becomes a residual-stress link; one with both nodes on one side, grazed by the
         capsule, joins what the cut does not separate and makes none. The links act once the
-        wound is open where they crossed (``_open_links``): under the tool there are no lips
+        wound is open where they crossed (``wound_links.open_links``): under the tool there are no lips
         yet, and links there would pull the sides together across the hole the tool is in.
         """
         editor, model, r = self.editor, self.model, inc.sweep_radius
@@ -521,7 +481,7 @@ class Cutter:
         doomed = {int(v) for v in nodes}
         own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
         pairs = model.spring_table.column("pairs")
-        crossing = _crosses(self._positions_view(sim), pairs[springs], a, b, normal)
+        crossing = separated_by(self._positions_view(sim), pairs[springs], a, b, normal)
         cut = [sl for sl, k in zip(springs, crossing) if k and not ({int(v) for v in pairs[sl]} & own_lips)]
         separated = []
         editor.delete_springs(cut, residual=True, doomed_nodes=doomed, pending=separated)
@@ -548,57 +508,10 @@ class Cutter:
         inc.deferrals = inc.deferrals + 1 if result["unfilled"] and not result["under_tool"] else 0
         inc.open_chains = result["unfilled"] + result["waiting"]  # retried at the next event
         report = editor.finish(positions=positions)
-        self._carry_links(inc, report, positions)
-        self._open_links(inc, positions)
+        reach = inc.sweep_radius + 1.5 * self.spacing
+        self.totals["lost_links"] += carry_links(editor, inc, report, positions, reach)
+        self.totals["lost_links"] += open_links(editor, inc, positions, reach)
         return report, result, positions
-
-    def _open_links(self, inc: Incision, positions: NodePositions) -> None:
-        """Make the residual links of the springs the cut separated behind the slit's tip (all
-        of them once the tool has gone). A node a later event deleted is replaced by the lip
-        that took its place on its side (``_Places``); the link is lost only if there is none."""
-        tip_u = inc.tip_u(self.model.active) if inc.open_end else np.inf
-        due = [link for link in inc.pending_links if link[3] <= tip_u]
-        if not due:
-            return
-        inc.pending_links = [link for link in inc.pending_links if link[3] > tip_u]
-        active = self.model.active
-        lips = [v for v in inc.left + inc.right if v >= 0 and active[v]]
-        places = _Places(inc, positions, lips, [], inc.sweep_radius + 1.5 * self.spacing)
-        pairs, rests = [], []
-        for i, j, rest, _ in due:
-            a = i if active[i] else places.taking(positions[i], exclude={j})
-            b = j if active[j] else places.taking(positions[j], exclude={a})
-            if a < 0 or b < 0 or a == b:
-                self.totals["lost_links"] += 1
-                continue
-            pairs.append((a, b))
-            rests.append(rest)
-        self.editor.make_links(pairs, rests)
-
-    def _carry_links(self, inc: Incision, report, positions: NodePositions) -> None:
-        """Move each residual link that lost a node in this edit to the node that took that
-        node's place: the nearest lip node on the same side of the incision (within the sweep
-        radius + 1.5 spacings; else the nearest node of the edit there); drop it only when that
-        side is gone. The lost node lay at the wound's edge, and the stress the link carries
-        acts between the wound's two edges: its other node, if not a lip, moves to the nearest
-        lip on its own side too (so a lip is never pulled across the wound by a node far on the
-        other side)."""
-        model, editor = self.model, self.editor
-        if not report.orphaned_links:
-            return
-        lips = [v for v in inc.left + inc.right if v >= 0 and model.active[v]]
-        others = sorted(v for v in set(report.new_nodes) | editor.touched_nodes
-                        if model.active[v] and v not in (inc.start_node, inc.end_node) and v not in lips)
-        places = _Places(inc, positions, lips, others, inc.sweep_radius + 1.5 * self.spacing)
-        for keep, lost, force, smoothing in report.orphaned_links:
-            if not model.active[keep]:
-                continue
-            a = places.taking(positions[lost], exclude={keep})
-            b = keep if keep in places.lip_set else places.taking(positions[keep], exclude={a}, lips_only=True)
-            if a < 0:
-                self.totals["lost_links"] += 1
-                continue
-            editor.add_link(keep if b < 0 else b, a, force, smoothing)
 
     def _count(self, report, result) -> None:
         tot = self.totals
