@@ -22,8 +22,9 @@ from ..mesh.geometry import triangle_min_angles
 from .classes import NodeClass, SpringClass
 from .incision import closest_on_polyline
 from .lip_slots import LipSlots, lips_for_chain
+from .strip import ear_clip, hole_polygon, turns_with, zip_strip
 
-__all__ = ["hole_chains", "zip_strip", "ear_clip", "fill_hole"]
+__all__ = ["hole_chains", "fill_hole"]
 
 
 def hole_chains(editor, removed_corners, open_chains=()) -> list[list[int]]:
@@ -100,126 +101,6 @@ def _runs(editor, a, b) -> bool:
     return False
 
 
-def _valid(tri, positions, normal) -> bool:
-    """True if the triangle has three distinct corners and turns the way of ``normal``."""
-    a, b, c = tri
-    if a == b or b == c or a == c:
-        return False
-    # plain floats: this runs for every candidate triangle of every fill
-    (ax, ay, az), (bx, by, bz), (cx, cy, cz) = positions[[a, b, c]].tolist()
-    ux, uy, uz, wx, wy, wz = bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az
-    nx, ny, nz = float(normal[0]), float(normal[1]), float(normal[2])
-    turn = (uy * wz - uz * wy) * nx + (uz * wx - ux * wz) * ny + (ux * wy - uy * wx) * nz
-    return turn > 1e-12 * (ux * ux + uy * uy + uz * uz + 1e-300)
-
-
-def zip_strip(border, lips, positions, normal, forbidden=None) -> list[tuple[int, int, int]]:
-    """Triangulate the strip between a border chain and a lip chain (both ordered the same
-    way along the strip, the border chain oriented like the surface's edges on it); where one
-    of the two next triangles is ``forbidden`` (a predicate on node triples), the other."""
-    tris = []
-    i = j = 0
-    while i < len(border) - 1 or j < len(lips) - 1:
-        along_border = (border[i], border[i + 1], lips[j]) if i < len(border) - 1 else None
-        along_lips = (border[i], lips[j + 1], lips[j]) if j < len(lips) - 1 else None
-        if along_border is None:
-            choice = "lips"
-        elif along_lips is None:
-            choice = "border"
-        else:
-            d_border = np.linalg.norm(positions[border[i + 1]] - positions[lips[j]])
-            d_lips = np.linalg.norm(positions[lips[j + 1]] - positions[border[i]])
-            choice = "border" if d_border <= d_lips else "lips"
-            first = along_border if choice == "border" else along_lips
-            other = along_lips if choice == "border" else along_border
-            if _blocked(first, positions, normal, forbidden) and not _blocked(other, positions, normal, forbidden):
-                choice = "lips" if choice == "border" else "border"
-        tri = along_border if choice == "border" else along_lips
-        if len(set(tri)) == 3:
-            tris.append(tri)
-        if choice == "border":
-            i += 1
-        else:
-            j += 1
-    return tris
-
-
-def _blocked(tri, positions, normal, forbidden) -> bool:
-    """True if a (non-degenerate) strip triangle would turn over or is ``forbidden``."""
-    return len(set(tri)) == 3 and (not _valid(tri, positions, normal) or (forbidden is not None and forbidden(tri)))
-
-
-def _polygon(border, lips) -> list[int]:
-    """The hole's boundary cycle: along the border chain, then back along the lips (shared end
-    nodes once)."""
-    cycle = list(border) + list(reversed(lips))
-    out = []
-    for v in cycle:
-        if not out or out[-1] != v:
-            out.append(v)
-    while len(out) > 1 and out[0] == out[-1]:
-        out.pop()
-    return out
-
-
-def ear_clip(polygon, positions, normal, forbidden=None) -> list[tuple[int, int, int]]:
-    """Triangulate a simple polygon (node cycle, counter-clockwise about ``normal``) by cutting
-    ears, best (largest smallest angle) first, never one whose nodes are ``forbidden`` (a
-    predicate on node triples); [] if the polygon is not simple or no ear is left."""
-    n = np.asarray(normal, dtype=np.float64)
-    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(n, e1)
-    pts = positions[polygon]
-    # ring entries are positions in the cycle: a node may appear twice (a closed border and a
-    # closed slit joined by a bridge edge walked both ways)
-    xy = [(float(p @ e1), float(p @ e2)) for p in pts]
-    ring = list(range(len(polygon)))
-    tris = []
-
-    def cross(a, b, c):
-        return (xy[b][0] - xy[a][0]) * (xy[c][1] - xy[a][1]) - (xy[b][1] - xy[a][1]) * (xy[c][0] - xy[a][0])
-
-    def min_angle(a, b, c):
-        p = [xy[v] for v in (a, b, c)]
-        angles = []
-        for k in range(3):
-            (x0, y0), (x1, y1), (x2, y2) = p[k], p[(k + 1) % 3], p[(k + 2) % 3]
-            u, w = (x1 - x0, y1 - y0), (x2 - x0, y2 - y0)
-            angles.append(math.atan2(abs(u[0] * w[1] - u[1] * w[0]), u[0] * w[0] + u[1] * w[1]))
-        return min(angles)
-
-    while len(ring) > 3:
-        best, best_q = None, -1.0
-        turns = [cross(ring[k - 1], ring[k], ring[(k + 1) % len(ring)]) for k in range(len(ring))]
-        # only a reflex (or flat) corner can lie inside an ear of a simple polygon
-        reflex = [v for v, turn in zip(ring, turns) if turn <= 0]
-        for k in range(len(ring)):
-            a, b, c = ring[k - 1], ring[k], ring[(k + 1) % len(ring)]
-            if turns[k] <= 0:
-                continue  # reflex or flat corner
-            corners = {polygon[a], polygon[b], polygon[c]}
-            if len(corners) < 3 or forbidden is not None and forbidden((polygon[a], polygon[b], polygon[c])):
-                continue
-            inside = any(cross(a, b, v) >= 0 and cross(b, c, v) >= 0 and cross(c, a, v) >= 0
-                         for v in reflex if polygon[v] not in corners)
-            if inside:
-                continue
-            q = min_angle(a, b, c)
-            if q > best_q:
-                best, best_q = k, q
-        if best is None:
-            return []
-        a, b, c = ring[best - 1], ring[best], ring[(best + 1) % len(ring)]
-        tris.append((a, b, c))
-        ring.pop(best)
-    if len(ring) == 3 and cross(*ring) > 0 and len({polygon[v] for v in ring}) == 3:
-        tris.append(tuple(ring))
-    else:
-        return []
-    return [tuple(polygon[v] for v in tri) for tri in tris]
-
-
 def _split_at_lips(chain, slots: LipSlots) -> list[list[int]]:
     """A border chain cut at the live lip nodes (and the start or end node) it passes: the
     hole touches the slit's border there, and each piece is filled against the lips between
@@ -273,7 +154,7 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
         if _acceptable(strip, editor, chart, _UP, slots, lips_only):
             candidates.append(strip)
     if not candidates or _min_angle(candidates[0], positions) < min_angle_deg:
-        ears = ear_clip(_polygon(chain, lips), chart, _UP, lips_only)
+        ears = ear_clip(hole_polygon(chain, lips), chart, _UP, lips_only)
         if _acceptable(ears, editor, chart, _UP, slots, lips_only):
             candidates.append(ears)
     facing = [c for c in candidates if _faces_out(c, positions, slots.incision, tool)]
@@ -455,7 +336,7 @@ def _close_over(chain, editor, incision, positions, slots: LipSlots):
     u, _, _ = incision.project(positions[chain])
     if float(u.max() - u.min()) > _CLOSE_OVER_SPAN * incision.spacing:
         return None
-    polygon = _polygon(chain, [])
+    polygon = hole_polygon(chain, [])
     for view in _views(incision, positions, polygon):
         ears = ear_clip(polygon, view, _UP)
         if _acceptable(ears, editor, view, _UP, slots, may_join=True):
@@ -585,7 +466,7 @@ def _acceptable(strip, editor, positions, normal, slots: LipSlots, forbidden=Non
         return False
     directed = set()
     for tri in strip:
-        if (not _valid(tri, positions, normal) or (not may_join and slots.bridges(tri))
+        if (not turns_with(tri, positions, normal) or (not may_join and slots.bridges(tri))
                 or (forbidden is not None and forbidden(tri)) or _exists(editor, tri)):
             return False
         for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
