@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from warp_cut import Material, Simulator, TissueModel, stable_time_step
+from warp_cut.cut.topology import TopologyEditor
 from warp_cut.kernels.bending import hinge_forces
 from warp_cut.mesh.patch import skin_patch_mesh
 from warp_cut.runner import prepare_simulation
@@ -220,3 +221,21 @@ def test_the_step_rows_bound_the_bending_on_a_sheet_with_slivers():
     assert bound < 20 * largest  # and not so loose that the step becomes useless
     assert stable_time_step(model).step < stable_time_step(
         TissueModel.from_triangles(points, tri, material=Material())).step
+
+
+def test_an_edit_that_makes_and_deletes_triangles_keeps_the_hinges():
+    """A flip and its undo in one edit (a sliver pass flipping a triangle it made): the
+    triangles made and deleted again leave dead slots among the edit's new ones, which the
+    hinges' refresh must not read (it raised ValueError on a cut with bending before)."""
+    model = TissueModel.from_patch((0.01, 0.01), 0.002, material=Material(bending_rigidity=D), pinned="none")
+    a, b, k, l = (int(v) for v in model.hinges[len(model.hinges) // 2])
+    editor = TopologyEditor(model)
+    editor.begin()
+    old = sorted(editor.triangles_with_edge(a, b))
+    editor.delete_triangles(old)
+    flipped = [editor.add_triangle(tri, model.points) for tri in ((a, l, k), (l, b, k))]
+    editor.delete_triangles(flipped)
+    for tri in ((a, b, k), (b, a, l)):
+        editor.add_triangle(tri, model.points)
+    editor.finish(positions=model.points)
+    assert {tuple(h) for h in model.hinges.tolist()} == {tuple(h) for h in hinges_of(model.triangles).tolist()}

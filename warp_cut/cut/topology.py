@@ -331,10 +331,12 @@ class TopologyEditor:
         return self.report
 
     def _changed_edges(self) -> set[tuple[int, int]]:
-        """Node pairs (i < j) of the edges of the triangles this edit deleted or made."""
+        """Node pairs (i < j) of the edges of the triangles this edit deleted or made (one made
+        and deleted again in the edit is among the deleted ones: its slot no longer holds it)."""
         table = self.model.triangle_table
         corners = list(self.report.deleted_triangle_corners)
-        corners += [tuple(int(v) for v in table.column("corners")[t]) for t in self.report.new_triangles]
+        corners += [tuple(int(v) for v in table.column("corners")[t]) for t in self.report.new_triangles
+                    if table.alive[t]]
         return {tuple(sorted((int(c[k]), int(c[(k + 1) % 3])))) for c in corners for k in range(3)}
 
     def _register_hinge(self, slot: int) -> None:
