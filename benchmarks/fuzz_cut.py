@@ -15,6 +15,10 @@ the run goes on with the next case.
                                   [--out benchmarks/results/fuzz.md]
     python benchmarks/fuzz_cut.py --case SEED [--strokes K]    # replay one case (its first K strokes)
     python benchmarks/fuzz_cut.py --named                      # the named cases (a)-(f)
+    python benchmarks/fuzz_cut.py --bending --out /tmp/fuzz_bending.md   # the skin resists bending
+
+``--bending`` gives every case's material Table 1's bending rigidity (``physics.bending``,
+``warp_cut.sim.bending``): the hinges are remade by every edit and checked with the rest.
 
 Writes the markdown report at ``--out`` and ``<out>.csv`` with one row per stroke.
 """
@@ -33,6 +37,7 @@ import warp as wp
 
 import warp_cut as wc
 from warp_cut.scene import DEFAULT_FOUNDATION_STIFFNESS
+from warp_cut.sim.bending import flexural_rigidity
 from warp_cut.verify.stroke_check import run_stroke
 from warp_cut.verify.stroke_quality import original_border
 
@@ -53,9 +58,14 @@ def reproducer(case: dict, strokes: int) -> str:
     return f"python benchmarks/fuzz_cut.py --case {case['seed']} --kind {case['kind']}{quick} --strokes {strokes}"
 
 
+BENDING_RIGIDITY = 0.0
+"""D [N m] every case's sheet gets (``--bending``: Table 1's skin, ``flexural_rigidity``)."""
+
+
 def make_simulator(case: dict, surface):
     s = case["sim"]
-    material = wc.Material(foundation_stiffness=DEFAULT_FOUNDATION_STIFFNESS) if s.get("foundation") else None
+    material = wc.Material(foundation_stiffness=DEFAULT_FOUNDATION_STIFFNESS if s.get("foundation") else 0.0,
+                           bending_rigidity=BENDING_RIGIDITY)
     model = wc.TissueModel.from_surface(surface, material=material)
     gravity = {} if s["gravity"] else {"gravity": None}  # the Simulator's default: standard gravity
     sim = wc.Simulator(model, dt=1e-3, cutting=wc.CutSettings(interval=s["interval"]),
@@ -175,7 +185,11 @@ def main(argv=None) -> int:
     ap.add_argument("--named", nargs="*", choices=NAMED_ALL, default=None,
                     help="run the named cases (all if none given)")
     ap.add_argument("--out", type=Path, default=None, help="markdown report (CSV beside it)")
+    ap.add_argument("--bending", action="store_true", help="the skin resists bending (physics.bending)")
     args = ap.parse_args(argv)
+    if args.bending:
+        global BENDING_RIGIDITY
+        BENDING_RIGIDITY = flexural_rigidity(wc.Material().youngs_modulus, wc.Material().thickness)
     if hasattr(wp.config, "quiet"):
         wp.config.quiet = True
     start = time.perf_counter()

@@ -29,6 +29,7 @@ from warp_cut.sim.bending import (
     hinges_of,
 )
 from warp_cut.sim.stability import bending_node_rows
+from warp_cut.verify.validity import cut_problems
 
 D = flexural_rigidity(20e3, 2e-3)  # Table 1's skin: 1.5e-5 N m
 
@@ -188,6 +189,9 @@ def test_a_cut_keeps_hinges_and_step_rows_as_rebuilt_from_scratch(background):
         assert len(sim.model.hinge_table.live_slots()) == len(hinges)
         rates = sim.cutter.element_rates
         np.testing.assert_allclose(rates.bend[: model.node_count], bending_node_rows(model), rtol=1e-12)
+        assert cut_problems(sim) == []
+        model.hinge_table.kill([int(model.hinge_table.live_slots()[0])])  # the check sees a lost hinge
+        assert any(p.startswith("hinges:") for p in cut_problems(sim))
 
 
 def test_the_step_rows_bound_the_bending_on_a_sheet_with_slivers():

@@ -10,7 +10,8 @@ The mesh invariants are ``warp_cut.mesh.checks.check_mesh``.
   balance (density x thickness x the sum of the triangles' rest areas), links only between
   live nodes, the device mirror of springs and node flags equal to the model's, the explicit
   integrator's substep within its safety fraction of the stable step kept up to date, no
-  non-finite velocity, and (given the Surface) no triangle turned against the analytic normal
+  non-finite velocity, with bending the hinges those of the triangles (and their device
+  mirror), and (given the Surface) no triangle turned against the analytic normal
   (reported apart for the triangles the latest edit made, those earlier edits made and the
   original ones: only the first are wound wrong by the cut itself).
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from ..mesh.checks import check_mesh
 from ..mesh.surfaces import flipped_triangles, surface_problems
+from ..sim.bending import hinges_of
 
 __all__ = ["surface_problems", "cut_problems", "flipped_triangles", "FOLD_CHECKS"]
 
@@ -44,6 +46,24 @@ def _device_problems(sim) -> list[str]:
     if not np.array_equal(flags, model.active.astype(flags.dtype)):
         problems.append(f"device_flags: {int((flags != model.active).sum())} device node flags "
                         "differ from the model's live nodes")
+    return problems
+
+
+def _hinge_problems(sim) -> list[str]:
+    """With bending: the model's hinges are exactly those of its interior edges, and the
+    device mirror holds the model's hinge table."""
+    model = sim.model
+    if model.material.bending_rigidity <= 0:
+        return []
+    problems = []
+    have = {tuple(h) for h in model.hinges.tolist()}
+    want = {tuple(h) for h in hinges_of(model.triangles).tolist()}
+    if have != want:
+        problems.append(f"hinges: {len(want - have)} interior edges without their hinge, "
+                        f"{len(have - want)} hinges on no interior edge")
+    nodes = model.hinge_table.column("nodes").ravel().astype(np.int32)
+    if not np.array_equal(sim.device_model.hinge_indices.numpy()[: len(nodes)], nodes):
+        problems.append("device_hinges: device hinge indices differ from the model's")
     return problems
 
 
@@ -78,7 +98,7 @@ def cut_problems(sim, surface=None, *, first_new_triangle: int | None = None) ->
     v = sim.velocities[model.active]
     if not np.isfinite(v).all():
         problems.append("velocity_finite: a live node has a non-finite velocity")
-    problems += _device_problems(sim) + _step_problems(sim)
+    problems += _device_problems(sim) + _hinge_problems(sim) + _step_problems(sim)
     if surface is not None:
         problems += _flip_problems(sim, x, surface, first_new_triangle)
     return problems
