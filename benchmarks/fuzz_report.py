@@ -75,7 +75,7 @@ def _totals(rows, wall) -> list[str]:
         f"- cut events: **{s['events']}**, each followed by every invariant check",
         f"- strokes with a mesh invariant violated (check_mesh: indices, duplicates, degenerate "
         f"triangles, winding, manifold edges, springs = edges, masses; mass balance, links between live "
-        f"nodes, device mirror, step budget, finite state): **{s['violating']}**",
+        f"nodes, device mirror, step budget, finite state; hinges with bending): **{s['violating']}**",
         f"- strokes in which the cut made a triangle wound against the surface ({WOUND_WRONG}): "
         f"**{s['wound_wrong']}**",
         f"- strokes after which triangles were folded over by the motion ({', '.join(FOLD_CHECKS)}; "
