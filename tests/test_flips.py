@@ -11,10 +11,10 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from warp_cut import TissueModel
-from warp_cut.cut.flips import SLIVER_DEG, flip_slivers
+from warp_cut.cut.flips import flip_slivers
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.mesh.checks import check_mesh
-from warp_cut.mesh.geometry import triangle_areas, triangle_min_angles
+from warp_cut.mesh.geometry import SLIVER_DEG, triangle_areas, triangle_min_angles
 
 
 def quad_model(apex_y: float, far_x: float = 1.0):

@@ -13,13 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh.geometry import triangle_min_angles
+from ..mesh.geometry import SLIVER_DEG, triangle_min_angles
 from .classes import SpringClass
 
-__all__ = ["flip_slivers", "SLIVER_DEG", "FACING_COS"]
+__all__ = ["flip_slivers", "FACING_COS"]
 
-SLIVER_DEG = 10.0
-"""A triangle with its smallest angle below this [deg] is a sliver (SPEC section 4)."""
 FACING_COS = 0.5
 """A flipped triangle's normal must lie within 60 degrees of the old pair's mean normal."""
 

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .geometry import (
+    SLIVER_DEG,
     _as_index_array,
     _as_pairs,
     _as_points,
@@ -152,7 +153,7 @@ class MeshReport:
     min_area: float = float("nan")
     min_spring_length: float = float("nan")
     total_mass: float | None = None
-    sliver_angle_deg: float = 10.0
+    sliver_angle_deg: float = SLIVER_DEG
     sliver_indices: np.ndarray = field(
         default_factory=lambda: np.zeros(0, dtype=np.int64), repr=False, compare=False
     )
@@ -509,7 +510,7 @@ def _nanmin(x: np.ndarray) -> float:
 # --------------------------------------------------------------------------
 def check_mesh(points, triangles, springs, *, active=None, masses=None, extra_springs=None,
                reference_normal=None, expected_total_mass: float | None = None,
-               sliver_angle_deg: float = 10.0, min_length: float = 1e-12, min_area: float = 1e-18,
+               sliver_angle_deg: float = SLIVER_DEG, min_length: float = 1e-12, min_area: float = 1e-18,
                sliver_triangles=None, mass_rtol: float = 1e-9) -> MeshReport:
     """Check every mesh invariant (see :data:`CHECKS`) and compute quality metrics.
 

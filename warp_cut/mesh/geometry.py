@@ -15,7 +15,10 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["triangle_angles", "triangle_min_angles", "triangle_areas", "triangle_normals",
-           "half_edges", "edges_of", "edge_keys", "boundary_nodes", "compact_surface"]
+           "half_edges", "edges_of", "edge_keys", "boundary_nodes", "compact_surface", "SLIVER_DEG"]
+
+SLIVER_DEG = 10.0
+"""A triangle whose smallest angle is below this [deg] is a sliver (SPEC section 4)."""
 
 
 # --------------------------------------------------------------------------

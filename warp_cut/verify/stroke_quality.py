@@ -34,20 +34,17 @@ import math
 import numpy as np
 
 from ..cut.classes import NodeClass
-from ..mesh.geometry import triangle_min_angles
+from ..mesh.geometry import SLIVER_DEG, triangle_min_angles
 from ..mesh.triangulate import border_loops, boundary_edges
 
 __all__ = ["original_border", "wound_edges", "skin_at_rest", "coverage", "curve_coverage", "lip_deviation",
-           "new_slivers", "segment_distances", "border_loop_count", "SLIVER_DEG"]
+           "new_slivers", "segment_distances", "border_loop_count"]
 
 SIDE_FRACTION = 1e-9
 """A wound point counts as left (right) of the trace when it lies strictly (more than this
 fraction of the spacing, a rounding margin) to that side: beyond the end of a slit the
 closest wound point on either side is the slit's end node, on one side of the trace at most,
 so the trace is not taken as open beyond the slit, while inside it the two lips are."""
-
-SLIVER_DEG = 10.0
-"""A triangle whose smallest angle is below this [deg] is a sliver (SPEC section 4)."""
 
 
 def _keys(pairs: np.ndarray, n: int) -> np.ndarray:
