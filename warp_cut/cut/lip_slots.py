@@ -115,21 +115,14 @@ class LipSlots:
             self.theta[node] = theta
         self._version += 1
 
-    def pushed_over_end(self, chain) -> int | None:
-        """A lip pushed across the curve (more than the lip offset onto the other side, by a
-        thick tool) at an end of an open ``chain`` whose two ends are interior-station lips of
-        one side: the hole reaches past the slit's tip, but the crossed lip, taken as on its
-        own side, bounds its slit coordinates to the stretch between the two (no station due
-        beyond the tip is offered). None if there is none."""
+    def _end_slots(self, chain) -> list[tuple[int, int]] | None:
+        """(side, station) of the lips at the two ends of an open ``chain``, or None unless
+        both are interior-station lips."""
         if chain[0] == chain[-1]:
             return None
-        sides = {n: side for n, _, side, station in self.slots if n >= 0 and station >= 0}
+        slot_of = {n: (side, station) for n, _, side, station in self.slots if n >= 0 and station >= 0}
         ends = (chain[0], chain[-1])
-        if not all(v in sides for v in ends) or sides[ends[0]] != sides[ends[1]]:
-            return None
-        _, now, dist = self.incision.project(self.positions[list(ends)])
-        return next((v for v, s, d in zip(ends, now, dist) if s != sides[v] and d > self.incision.lip_offset),
-                    None)
+        return [slot_of[v] for v in ends] if all(v in slot_of for v in ends) else None
 
     def crossed(self, node, beyond: float | None = None) -> bool:
         """True if ``node`` is an interior station's lip lying on the other side of the curve,
@@ -140,29 +133,25 @@ class LipSlots:
         _, now, dist = self.incision.project(self.positions[[node]])
         return bool(now[0] != slot[0] and dist[0] > (self.incision.lip_offset if beyond is None else beyond))
 
-    def crossed_end(self, chain) -> list[int]:
-        """A lip on the other side of the curve (any distance) at an end of an open ``chain``
-        whose two ends are interior-station lips of one side: the hole it closes off is the
-        slit's stretch ahead, which no station is offered to. [] if none."""
-        if chain[0] == chain[-1]:
-            return []
-        sides = {n: side for n, _, side, station in self.slots if n >= 0 and station >= 0}
-        ends = [chain[0], chain[-1]]
-        if not all(v in sides for v in ends) or sides[ends[0]] != sides[ends[1]]:
-            return []
-        return [v for v in ends if self.crossed(v, beyond=0.0)][:1]
+    def crossed_end(self, chain, beyond: float | None = None) -> int | None:
+        """A lip at an end of an open ``chain`` whose two ends are interior-station lips of one
+        side, lying on the other side of the curve more than ``beyond`` [m] (the lip offset by
+        default; pushed there by a thick tool), or None. The hole reaches past the slit's tip,
+        but the crossed lip, taken as on its own side, bounds its slit coordinates to the
+        stretch between the two: no station due beyond the tip is offered to it."""
+        ends = self._end_slots(chain)
+        if ends is None or ends[0][0] != ends[1][0]:
+            return None
+        return next((v for v in (chain[0], chain[-1]) if self.crossed(v, beyond)), None)
 
     def twisted_pair(self, chain) -> list[int]:
         """The two lips of one station at the ends of an open ``chain``, each lying on the
         other's side of the curve (a thick tool twisted the pair over each other), or []."""
-        if chain[0] == chain[-1]:
+        ends = self._end_slots(chain)
+        if ends is None or ends[0][1] != ends[1][1]:
             return []
-        slot_of = {n: (side, station) for n, _, side, station in self.slots if n >= 0 and station >= 0}
-        ends = [chain[0], chain[-1]]
-        if not all(v in slot_of for v in ends) or slot_of[ends[0]][1] != slot_of[ends[1]][1]:
-            return []
-        _, now, _ = self.incision.project(self.positions[ends])
-        return ends if all(s != slot_of[v][0] for v, s in zip(ends, now)) else []
+        _, now, _ = self.incision.project(self.positions[[chain[0], chain[-1]]])
+        return [chain[0], chain[-1]] if all(s != slot[0] for slot, s in zip(ends, now)) else []
 
     @property
     def lip_nodes(self) -> set:

@@ -276,10 +276,11 @@ def _in_the_slit(pieces, incision, positions, slots: LipSlots) -> list[int]:
     """Nodes on the hole's border that stand in the slit, where no fill can pass them: the two
     lips of a station twisted over each other (``LipSlots.twisted_pair``), a lip on the other
     side of the curve at an end of a hole both of whose ends are lips of its side
-    (``LipSlots.crossed_end``), a lip pushed across the curve (more than the lip offset) that
-    closes a hole on itself (``LipSlots.crossed``), and tissue nodes nearer the curve than the
-    lip offset along it (pulled there after the tool passed)."""
-    nodes = [v for piece in pieces for v in slots.twisted_pair(piece) + slots.crossed_end(piece)]
+    (``LipSlots.crossed_end``, any distance), a lip pushed across the curve (more than the lip
+    offset) that closes a hole on itself (``LipSlots.crossed``), and tissue nodes nearer the
+    curve than the lip offset along it (pulled there after the tool passed)."""
+    nodes = [v for piece in pieces
+             for v in slots.twisted_pair(piece) + [slots.crossed_end(piece, beyond=0.0)] if v is not None]
     nodes += [piece[0] for piece in pieces if piece[0] == piece[-1] and slots.crossed(piece[0])]
     lips = slots.lip_nodes
     border = sorted({v for piece in pieces for v in piece if v not in lips} - set(nodes))
@@ -293,8 +294,8 @@ def _in_the_slit(pieces, incision, positions, slots: LipSlots) -> list[int]:
 def _fill_releasing_pushed_lip(chain, editor, incision, positions, slots: LipSlots, notch: bool, tool,
                                min_angle_deg: float, defer_slivers: bool):
     """``_fill_chain``, first with a lip pushed across the curve at an end of the chain taken
-    as tissue (``LipSlots.pushed_over_end``), and as it is if that fill fails."""
-    pushed = slots.pushed_over_end(chain)
+    as tissue (``LipSlots.crossed_end``), and as it is if that fill fails."""
+    pushed = slots.crossed_end(chain)
     if pushed is not None:
         slots.release(pushed)
         outcome, tris = _fill_chain(chain, editor, incision, positions, slots, notch, tool,
