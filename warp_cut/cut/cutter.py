@@ -205,8 +205,8 @@ class Cutter:
         if self.current is None:
             self._start_where_the_blade_entered(sim, poses)
             return
-        crossing = self.crossing(sim, tool)
-        if crossing is None and (self._in_own_opening(tool) or self._through_an_opening(sim, tool)):
+        crossing, skin = self._contact(sim, tool)
+        if crossing is None and (self._in_own_opening(tool) or self._through_an_opening(tool, skin)):
             return  # no skin around the axis, but the blade is still down in the tissue: wait
         if crossing is None or crossing.tip_height > self.exit_margin:
             self.end_incision(sim)  # the tool has left the skin: this incision is complete
@@ -226,19 +226,17 @@ class Cutter:
         reach = 2.0 * self.current.sweep_radius + self.spacing
         return bool(from_axis[0] <= reach and float((tool.p0 - end) @ normal) <= self.exit_margin)
 
-    def _through_an_opening(self, sim: CutHost, tool: Tool) -> bool:
+    def _through_an_opening(self, tool: Tool, skin: np.ndarray) -> bool:
         """True if the tool passes through an opening in the skin (an earlier wound) with its
-        tip down in the tissue: skin around its axis (``_skin_near``: live nodes within 1.5
-        radii + 3 spacings), and the tip not above it by more than ``exit_margin`` along the skin's
-        normal where the incision last cut (median over those nodes). A thin tool crossing a
-        wide earlier wound has no skin at its axis there, but has not left the skin: the
-        incision goes on where the blade meets skin again. A blade the skin fell away from, or
-        lifted out, has."""
-        x = self._positions_view(sim)
-        nodes, _ = self._skin_near(sim, tool, x)
-        if len(nodes) < 3:
+        tip down in the tissue: skin around its axis (``skin``: positions [m] (k, 3) of the live
+        nodes ``_skin_near`` found, within 1.5 radii + 3 spacings), and the tip not above it by
+        more than ``exit_margin`` along the skin's normal where the incision last cut (median
+        over those nodes). A thin tool crossing a wide earlier wound has no skin at its axis
+        there, but has not left the skin: the incision goes on where the blade meets skin
+        again. A blade the skin fell away from, or lifted out, has."""
+        if len(skin) < 3:
             return False
-        heights = (tool.p0 - x[nodes].astype(np.float64)) @ self.current.normals[-1]
+        heights = (tool.p0 - skin.astype(np.float64)) @ self.current.normals[-1]
         return bool(np.median(heights) <= self.exit_margin)
 
     def catch_up(self, poses: list[Tool]) -> None:
@@ -248,9 +246,14 @@ class Cutter:
 
     def crossing(self, sim: CutHost, tool: Tool) -> Crossing | None:
         """Where the tool's axis crosses the skin now (None: the tool is out of the skin)."""
+        return self._contact(sim, tool)[0]
+
+    def _contact(self, sim: CutHost, tool: Tool) -> tuple[Crossing | None, np.ndarray]:
+        """(``crossing``, positions [m] (k, 3) of the skin near the tool it was looked for in)."""
         x = self._positions_view(sim)
         nodes, corners = self._skin_near(sim, tool, x)
-        return self._locate(tool, x[nodes], self.model.points[nodes], corners)
+        skin = x[nodes]
+        return self._locate(tool, skin, self.model.points[nodes], corners), skin
 
     def _start_where_the_blade_entered(self, sim: CutHost, poses: list[Tool]) -> None:
         """Start an incision if the axis crosses the skin (and the tool pushes hard enough),
