@@ -249,26 +249,26 @@ class ElementRates:
         edges = np.concatenate([corners[:, [a, b]] for a, b in _TRIANGLE_EDGES])
         edge_slots = self._spring_slots(edges, springs_near).reshape(3, len(tris)).T  # (t, 3), -1: none
         self._count_triangles(edge_slots, springs_at)
-        table = model.node_table
-
-        def free_at(idx):  # alive and not pinned
-            return table.alive_buffer()[idx] & ~table.buffer("pinned")[idx]
-
+        free_at, weights_at = self._free_at, self._weights_at
         edge_k = self._triangle_edge_stiffness(edge_slots)
         alone = springs_at[self.on_triangles[springs_at] == 0]
         alone_pairs = model.spring_table.column("pairs")[alone]
         link_pairs = model.link_table.column("pairs")[links_at]
         supported = foundation_rows(model, nodes) > 0
-        masses, damping = model.masses, model.damping
-
-        def weights_at(idx):  # (2, *idx.shape): mass [kg] and damping [N s/m]
-            return np.stack([masses[idx], damping[idx]])
-
         self._set("triangles", tris, _triangle_rates(weights_at, corners, edge_k, self.sums, free_at))
         self._set("springs", springs_at, 0.0)
         self._set("springs", alone, _pair_rates(self.sums, weights_at, alone_pairs, free_at))
         self._set("links", links_at, _pair_rates(self.sums, weights_at, link_pairs, free_at))
         self._set("foundation", nodes, np.where(supported, _node_ratio(self.sums, weights_at, nodes, free_at), 0.0))
+
+    def _free_at(self, idx) -> np.ndarray:
+        """Which of node slots ``idx`` (any shape) move: alive and not pinned."""
+        table = self.model.node_table
+        return table.alive_buffer()[idx] & ~table.buffer("pinned")[idx]
+
+    def _weights_at(self, idx) -> np.ndarray:
+        """(2, *idx.shape): the mass [kg] and the damping [N s/m] of node slots ``idx``."""
+        return np.stack([self.model.masses[idx], self.model.damping[idx]])
 
     def _set(self, kind: str, slots, values) -> None:
         """rates[kind][:, slots] = values, keeping each weight's largest rate known: a larger
@@ -356,17 +356,12 @@ class ElementRates:
         """((max B_i / m_i [1/s^2], node), (max B_i / D_i [1/s], node)) over the free live nodes
         (Gershgorin's bound on the bending alone; 0 and -1 without bending)."""
         model = self.model
-        n = model.node_count
-        free = model.active & ~model.pinned & (self.bend[:n] > 0)
-        if not free.any():
+        nodes = np.flatnonzero(self.bend[: model.node_count] > 0) if model.material.bending_rigidity > 0 else []
+        if not len(nodes):  # no pass over the nodes for a sheet that does not bend
             return (0.0, -1), (0.0, -1)
-        nodes = np.flatnonzero(free)
-        found = []
-        for weight in (model.masses[nodes], model.damping[nodes]):
-            with np.errstate(divide="ignore"):
-                rate = np.where(weight > 0, self.bend[nodes] / np.where(weight > 0, weight, 1.0), np.inf)
-            k = int(np.argmax(rate))
-            found.append((float(rate[k]), int(nodes[k])))
+        rates = _node_ratio(self.bend, self._weights_at, nodes, self._free_at)  # (2, k), 0 where pinned
+        best = np.argmax(rates, axis=1)
+        found = [(float(rates[w, k]), int(nodes[k]) if rates[w, k] > 0 else -1) for w, k in enumerate(best)]
         return found[0], found[1]
 
     def limit(self, include_damping: bool = True) -> StepLimit:
