@@ -481,7 +481,7 @@ class Cutter:
             sim.state.positions, dm.spring_indices, self._index_array(near_springs),
             wp.vec3(*a), wp.vec3(*b), float(r)])
         editor.begin()
-        doomed = {int(v) for v in nodes}
+        doomed = {int(v) for v in nodes} | self._cut_in_material(sim, near, a, b, r)
         own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
         pairs = model.spring_table.column("pairs")
         crossing = separated_by(self._positions_view(sim), pairs[springs], a, b, normal)
@@ -493,6 +493,38 @@ class Cutter:
                               if frozenset((i, j)) not in known]  # tissue re-closed and cut again
         editor.delete_springs(springs, residual=False)  # grazed on one side, or at own lips
         editor.delete_nodes(sorted(doomed))
+
+    def _cut_in_material(self, sim: CutHost, near: np.ndarray, a: np.ndarray, b: np.ndarray,
+                         r: float) -> set[int]:
+        """Nodes of the original tissue (not lips) among ``near`` whose rest positions lie
+        within half the sweep radius ``r`` of the swept segment carried into the rest shape:
+        material the blade passed through. The tool's front pushes such a node ahead of it (up
+        a tilted shaft, off the path), so the capsule on the skin never reaches it; the blade
+        would have cut it. The segment's ends a, b [m] are carried by the displacement of the
+        tissue around them (nodes beyond 1.5 tool radii of the axis, Gaussian weights of two
+        spacings)."""
+        model = self.model
+        near = np.asarray(near, dtype=np.int64)
+        original = near[model.node_class[near] != NodeClass.LIP]
+        if len(original) == 0:
+            return set()
+        x = self._positions_view(sim)[original].astype(np.float64)
+        rest = model.points[original]
+        tool = sim.tool_pose
+        free = np.ones(len(original), dtype=bool)
+        if tool is not None:
+            _, _, _, from_axis = closest_on_polyline(x, np.stack([tool.p0, tool.p1]))
+            free = from_axis > 1.5 * tool.radius
+        if free.sum() < 3:
+            return set()
+        ends = []
+        for p in (a, b):
+            w = np.exp(-(np.linalg.norm(x[free] - p, axis=1) / (2.0 * self.spacing)) ** 2)
+            if not w.sum() > 1e-12:
+                return set()
+            ends.append(p + (w @ (rest[free] - x[free])) / w.sum())
+        _, _, _, dist = closest_on_polyline(rest, np.stack(ends))
+        return {int(v) for v in original[dist < 0.5 * r]}
 
     def _index_array(self, idx) -> wp.array:
         return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.device)
