@@ -789,3 +789,27 @@ def test_the_wound_behind_a_tool_crossing_a_curve_is_filled_while_it_cuts():
     tool = s_curve_tool(1699)
     crossing = tool.p0 + (0.0 - tool.p0[2]) / (tool.p1[2] - tool.p0[2]) * (tool.p1 - tool.p0)
     assert np.linalg.norm(sim.positions[lips, :2] - crossing[:2], axis=1).min() < 3 * 0.002 + 0.00115
+
+
+
+def test_a_hole_that_runs_into_an_opening_is_filled_once_it_can_be():
+    """Two strokes (r 1.4 and 1.2 mm, tilted 68 degrees) on a jittered Delaunay disk under XPBD,
+    a cut event every step, the second crossing the first. A hole of the incision that runs
+    into an opening (the tissue's edge, an earlier wound) is open to it, not closed against
+    it; but a first fill that failed (the tool still near) had given the hole up for good:
+    its stations never got lips, and the wound stayed a channel as wide as the swept band
+    (coverage 0.56 and 0.35). Such a hole is tried again while the tool cuts, and given up
+    only once it has gone: the strokes open 0.99 and 0.90 of their paths."""
+    surface = jittered_delaunay(radius=0.018851657020718077, spacing=0.0017195898028990217,
+                                jitter=0.1907679837492858, seed=325552691)
+    model = TissueModel.from_surface(surface)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, integrator="xpbd", gravity=None,
+                    cutting=CutSettings(interval=0.0))
+    first = strokes.line([0.00802946818590338, 0.007330454779326026], 2.9784904180916874, 0.012959909967617353)
+    tool = (68.78039245672159, 0.0014180189906988724, 0.0017277536993699858, 0.026482536380724755,
+            0.047225139031902945)
+    assert_no_hole_after(sim, surface, first, tool, min_coverage=0.95)
+    second = strokes.line([0.004919762668240229, 0.011482109415071735], 3.627809137004901, 0.011880053388981135)
+    tool = (67.67269074797781, 0.0011975799449719209, 0.001663015006235848, 0.030104737768195295,
+            0.036669448821860275)
+    assert_no_hole_after(sim, surface, second, tool, min_coverage=0.85)

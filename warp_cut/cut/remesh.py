@@ -229,8 +229,9 @@ _REOPENED_STATIONS = 2
 def _fill_pieces(pieces, editor, incision, positions, slots: LipSlots, tool, min_angle_deg: float,
                  defer_slivers: bool):
     """Fill each hole border of ``pieces`` (``_fill_releasing_pushed_lip``, else close it over
-    once the tool has gone): (triangles made, unfilled chains, waiting chains, whether a
-    chain waits for the tool)."""
+    once the tool has gone; a notch no fill passes waits while the tool cuts and is left open
+    to its opening once it has gone): (triangles made, unfilled chains, waiting chains,
+    whether a chain waits for the tool)."""
     triangles, unfilled, waiting, under_tool = [], [], [], False
     slots.projected([v for piece in pieces for v in piece])  # at once: every fill asks of them
     for chain in pieces:
@@ -247,6 +248,9 @@ def _fill_pieces(pieces, editor, incision, positions, slots: LipSlots, tool, min
             under_tool = True
             continue
         if tris is None:
+            if notch and incision.open_end:
+                waiting.append(chain)  # open to an opening: tried again while the tool cuts
+                continue
             if notch:
                 incision.reached_border = True
                 continue
