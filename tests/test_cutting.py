@@ -813,3 +813,18 @@ def test_a_hole_that_runs_into_an_opening_is_filled_once_it_can_be():
     tool = (67.67269074797781, 0.0011975799449719209, 0.001663015006235848, 0.030104737768195295,
             0.036669448821860275)
     assert_no_hole_after(sim, surface, second, tool, min_coverage=0.85)
+
+
+def test_a_tool_drawn_out_of_its_wound_does_not_start_another_incision():
+    """A shallow tool (r 1.7 mm, 34 degrees) drawn out of the skin at its stroke's end on a
+    jittered saddle under XPBD (no gravity, no support) lifts the soft skin with it: once the
+    incision has ended (tip 1.5 mm above the skin), the skin closed over the tip again and a
+    second incision started there, of no length. A new incision does not start with the axis
+    at the end of the one just finished: one incision, no hole."""
+    surface = saddle(0.046828748242237914, -37.63688037070533, 0.002576244845203869, jitter=0.4, seed=1533229460)
+    model = TissueModel.from_surface(surface)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, integrator="xpbd", gravity=None,
+                    cutting=CutSettings(interval=0.011498960362683937))
+    path = strokes.line([0.004117361698077476, 0.005860798168576985], 4.4807667634299495, 0.0145561642047078)
+    assert_no_hole_after(sim, surface, path, (34.06093300662745, 0.0016698938272158923, 0.0035156924137645794,
+                                              0.03033737769713525, 0.03350733370293171))

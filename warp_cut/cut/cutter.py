@@ -173,6 +173,8 @@ class Cutter:
         self._last_event = -np.inf
         self._poses: list[Tool] = []
         """Tool poses of the steps since the last cut event (where the blade entered)."""
+        self._tip_before: np.ndarray | None = None
+        """The tool's tip at the last cut event [m] (None: no tool then)."""
         self._hits = _Hits(device)
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
@@ -194,6 +196,7 @@ class Cutter:
             self._poses.append(tool)
         else:
             self._poses.clear()
+            self._tip_before = None
             self.end_incision(sim)
         if sim.time - self._last_event < self.settings.interval - 0.5 * sim.dt:  # the step nearest
             return
@@ -202,8 +205,10 @@ class Cutter:
         if not cutting:
             return
         poses, self._poses = self._poses, []
+        tip_before, self._tip_before = self._tip_before, tool.p0
         if self.current is None:
-            self._start_where_the_blade_entered(sim, poses)
+            if not self._drawn_out(poses, tip_before):
+                self._start_where_the_blade_entered(sim, poses)
             return
         crossing, skin = self._contact(sim, tool)
         if crossing is None and (self._in_own_opening(tool) or self._through_an_opening(tool, skin)):
@@ -216,15 +221,31 @@ class Cutter:
         # the cut: wait
 
     def _in_own_opening(self, tool: Tool) -> bool:
-        """True if the tool is still in the opening the current incision made: its axis within
-        2 sweep radii + a spacing of the last point cut, its tip no higher above the skin there
-        than ``exit_margin``. A thick tool crossing an earlier wound leaves no skin on one side
-        of its axis until this event's lips are made, so no crossing is found there; the tool
-        has not left the skin for that."""
+        """True if the tool is still in the opening the current incision made: its axis at the
+        incision's end (``_at_the_end_of``), its tip no higher above the skin there than
+        ``exit_margin``. A thick tool crossing an earlier wound leaves no skin on one side of
+        its axis until this event's lips are made, so no crossing is found there; the tool has
+        not left the skin for that."""
         end, normal = self.current.path[-1], self.current.normals[-1]
-        _, _, _, from_axis = closest_on_polyline(end[None], np.stack([tool.p0, tool.p1]))
-        reach = 2.0 * self.current.sweep_radius + self.spacing
-        return bool(from_axis[0] <= reach and float((tool.p0 - end) @ normal) <= self.exit_margin)
+        return self._at_the_end_of(self.current, tool) and float((tool.p0 - end) @ normal) <= self.exit_margin
+
+    def _drawn_out(self, poses: list[Tool], tip_before: np.ndarray | None) -> bool:
+        """True while the tool is drawn out of the wound the last incision cut: its axis at
+        that incision's end (``_at_the_end_of``) and its tip moving out along the skin's
+        normal there since the last event (from ``tip_before``, else the first of ``poses``).
+        A tool drawn out lifts the skin around it; that skin closing over its tip again is
+        not a new cut."""
+        if not self.incisions:
+            return False
+        inc = self.incisions[-1]
+        before = poses[0].p0 if tip_before is None else tip_before
+        return float((poses[-1].p0 - before) @ inc.normals[-1]) > 0.0 and self._at_the_end_of(inc, poses[-1])
+
+    def _at_the_end_of(self, inc: Incision, tool: Tool) -> bool:
+        """True if the tool's axis passes within 2 sweep radii + a spacing of the last point
+        ``inc`` cut."""
+        _, _, _, from_axis = closest_on_polyline(inc.path[-1][None], np.stack([tool.p0, tool.p1]))
+        return bool(from_axis[0] <= 2.0 * inc.sweep_radius + self.spacing)
 
     def _through_an_opening(self, tool: Tool, skin: np.ndarray) -> bool:
         """True if the tool passes through an opening in the skin (an earlier wound) with its
