@@ -792,6 +792,14 @@ def test_the_wound_behind_a_tool_crossing_a_curve_is_filled_while_it_cuts():
 
 
 
+def xpbd_sim(surface, interval: float) -> Simulator:
+    """A cutting Simulator on ``surface`` under XPBD, without gravity or support, as the fuzz
+    cases below ran; events every ``interval`` [s] (0: every step)."""
+    model = TissueModel.from_surface(surface)
+    return Simulator(model, dt=1e-3, device=DEVICE, integrator="xpbd", gravity=None,
+                     cutting=CutSettings(interval=interval))
+
+
 def test_a_hole_that_runs_into_an_opening_is_filled_once_it_can_be():
     """Two strokes (r 1.4 and 1.2 mm, tilted 68 degrees) on a jittered Delaunay disk under XPBD,
     a cut event every step, the second crossing the first. A hole of the incision that runs
@@ -802,9 +810,7 @@ def test_a_hole_that_runs_into_an_opening_is_filled_once_it_can_be():
     only once it has gone: the strokes open 0.99 and 0.90 of their paths."""
     surface = jittered_delaunay(radius=0.018851657020718077, spacing=0.0017195898028990217,
                                 jitter=0.1907679837492858, seed=325552691)
-    model = TissueModel.from_surface(surface)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, integrator="xpbd", gravity=None,
-                    cutting=CutSettings(interval=0.0))
+    sim = xpbd_sim(surface, 0.0)
     first = strokes.line([0.00802946818590338, 0.007330454779326026], 2.9784904180916874, 0.012959909967617353)
     tool = (68.78039245672159, 0.0014180189906988724, 0.0017277536993699858, 0.026482536380724755,
             0.047225139031902945)
@@ -822,9 +828,22 @@ def test_a_tool_drawn_out_of_its_wound_does_not_start_another_incision():
     second incision started there, of no length. A new incision does not start with the axis
     at the end of the one just finished: one incision, no hole."""
     surface = saddle(0.046828748242237914, -37.63688037070533, 0.002576244845203869, jitter=0.4, seed=1533229460)
-    model = TissueModel.from_surface(surface)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, integrator="xpbd", gravity=None,
-                    cutting=CutSettings(interval=0.011498960362683937))
+    sim = xpbd_sim(surface, 0.011498960362683937)
     path = strokes.line([0.004117361698077476, 0.005860798168576985], 4.4807667634299495, 0.0145561642047078)
     assert_no_hole_after(sim, surface, path, (34.06093300662745, 0.0016698938272158923, 0.0035156924137645794,
                                               0.03033737769713525, 0.03350733370293171))
+
+
+def test_a_tissue_node_taken_as_a_lip_out_of_turn_does_not_block_the_fill():
+    """A thick upright tool (r 1.8 mm, 75 degrees) on a jittered Delaunay disk under XPBD: a
+    tissue node near a station's lip point (the tissue closed in on the curve) was taken as
+    that station's lip, but it lay on the hole's border beyond nodes the strip had to reach
+    first, so every fill turned a triangle over. The hole grew to the whole incision and
+    stayed open (coverage 0, one lip). A fill that fails with such nodes is tried with new
+    lips in their place: the stroke is opened along its whole path."""
+    surface = jittered_delaunay(radius=0.025308066932872474, spacing=0.0023498724024553705,
+                                jitter=0.2163162961711657, seed=1160903577)
+    path = strokes.line([0.006792538822878467, 0.004017769504807994], 3.68207020697412, 0.01590446732222027)
+    assert_no_hole_after(xpbd_sim(surface, 0.0), surface, path, (74.5399617658142, 0.0018056422442688023,
+                                                                 0.0022504985879017846, 0.01630176602147304,
+                                                                 0.04970137088697704))

@@ -21,7 +21,7 @@ import numpy as np
 from ..mesh.geometry import triangle_min_angles
 from .classes import NodeClass, SpringClass
 from .incision import closest_on_polyline
-from .lip_slots import LipSlots, lips_for_chain
+from .lip_slots import PLACEHOLDER, LipSlots, lips_for_chain
 from .strip import ear_clip, hole_polygon, turns_with, zip_strip
 
 __all__ = ["hole_chains", "fill_hole"]
@@ -319,15 +319,18 @@ def _fill_chain(chain, editor, incision, positions, slots: LipSlots, notch: bool
     ordered = lips_for_chain(incision, chain, slots.theta_of, slots.free_for(chain), notch)
     if not ordered and chain[0] != chain[-1]:
         return ("waiting" if incision.open_end else "open"), None
-    lips = slots.propose(ordered, chain, snap=0.5 * incision.spacing)
-    if tool is not None and slots.proposed_inside(tool):
+    for snap in (0.5 * incision.spacing, 0.0):  # a tissue node snapped as a lip may be out of turn
+        lips = slots.propose(ordered, chain, snap=snap)
+        if tool is not None and slots.proposed_inside(tool):
+            slots.discard()
+            return "under_tool", None
+        for view in _views(incision, positions, chain + lips):
+            tris = _triangulate(chain, lips, editor, view, positions, min_angle_deg, defer_slivers, slots, tool)
+            if tris is not None:
+                return "filled", tris
         slots.discard()
-        return "under_tool", None
-    for view in _views(incision, positions, chain + lips):
-        tris = _triangulate(chain, lips, editor, view, positions, min_angle_deg, defer_slivers, slots, tool)
-        if tris is not None:
-            return "filled", tris
-    slots.discard()
+        if not any(v < PLACEHOLDER and v not in slots.lip_nodes for v in lips):
+            break  # nothing was snapped: the same fill again would fail the same way
     return "unfilled", None
 
 
