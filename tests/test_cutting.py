@@ -847,3 +847,19 @@ def test_a_tissue_node_taken_as_a_lip_out_of_turn_does_not_block_the_fill():
     assert_no_hole_after(xpbd_sim(surface, 0.0), surface, path, (74.5399617658142, 0.0018056422442688023,
                                                                  0.0022504985879017846, 0.01630176602147304,
                                                                  0.04970137088697704))
+
+
+def test_a_hole_round_the_lost_start_node_is_filled_from_the_lip_it_touches():
+    """A zigzag (r 0.91 mm, 71 degrees) on a 1.8 mm cylinder mesh (radius 15.5 mm), a cut event
+    every step, no gravity: a later event removed the slit's start node, and the hole round the
+    start then touched the slit at one lip only. Its border, a loop from that lip round to
+    itself, was filled as if it began at the start: every fill failed, the hole grew to the
+    whole incision and stayed open (coverage 0.15, one lip). The loop faces every other slot,
+    round the slit from that lip (the start gets a new node): no hole, the stroke opened."""
+    h = 0.0018193460701189281
+    surface = cylinder(0.015515766392778598, 0.026, 0.026 / 0.015515766392778598, h)
+    model = TissueModel.from_surface(surface)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, gravity=None, cutting=CutSettings(interval=0.0))
+    path = strokes.zigzag([-0.004920985520213018, -0.001455083929119989], 0.5, 0.008381704527728823, 1.5 * h, 6 * h)
+    assert_no_hole_after(sim, surface, path, (71.366061510393, 0.0009096730350594641, 0.002682316691734213,
+                                              0.0211849249172829, 0.04), min_coverage=0.85)

@@ -24,12 +24,17 @@ __all__ = ["LipSlots", "lips_for_chain", "lips_inside", "LIP_TOOL_SLACK", "PLACE
 def lips_for_chain(incision, chain, theta_of, lip_slots, onto_opening: bool = False):
     """The lip slots facing a border chain, ordered along it (decreasing theta); [] when a
     closed chain does not hold the slit's start (it is then closed over, see
-    ``remesh.fill_hole``). ``onto_opening``: the chain's ends lie on an opening the cut ran
-    into (``remesh._notch``)."""
+    ``remesh.fill_hole``). A closed chain from a station's lip round to itself (the start node
+    is gone) faces every other slot, round the slit from that lip. ``onto_opening``: the
+    chain's ends lie on an opening the cut ran into (``remesh._notch``)."""
     total = 2.0 * incision.length
     closed = chain[0] == chain[-1]
     lip_node_ids = {node for node, *_ in lip_slots if node >= 0}
     starts = [s for s in lip_slots if s[3] == -1]
+    # a loop from a station's lip round to itself (the slit's start node is gone, so the hole
+    # round the start touches the slit at that lip only): every slot, starting from that lip
+    looped = closed and chain[0] in lip_node_ids and all(s[0] != chain[0] for s in starts)
+    closed = closed and not looped
     if closed and not starts:
         return []
     if closed:
@@ -38,7 +43,7 @@ def lips_for_chain(incision, chain, theta_of, lip_slots, onto_opening: bool = Fa
         hi, lo = theta_of(chain[0]), theta_of(chain[-1])
     # both ends at one slit coordinate: around the whole slit (the chain leaves an earlier
     # opening at the open tip and comes back to it there) if its nodes reach away from it
-    around = onto_opening and not closed and abs(hi - lo) < 1e-3 * incision.spacing and any(
+    around = looped or onto_opening and not closed and abs(hi - lo) < 1e-3 * incision.spacing and any(
         abs(theta_of(v) - hi) > incision.spacing for v in chain[1:-1])
     wraps = not closed and (hi < lo or around)
     top = hi + total if wraps else hi
