@@ -2,7 +2,7 @@
 all drawn from one integer seed (so any case can be replayed alone), and the named cases.
 
 A case is a plain dict (JSON-able): ``surface`` (generator name and arguments), ``sim``
-(integrator, cut interval [s], gravity on/off) and ``strokes`` (path kind and parameters in
+(integrator, cut interval [s], gravity and support on/off, residual-stress model) and ``strokes`` (path kind and parameters in
 the surface's parameter plane, tilt [deg], tool radius, depth, length [m], speed [m/s]).
 """
 
@@ -20,6 +20,11 @@ KINDS = ("flat", "rotated", "delaunay", "dome", "cylinder", "saddle")
 """Mesh kinds of the fuzz: flat grid, turned flat grid, jittered Delaunay disk, dome, cylinder, saddle."""
 
 INTEGRATORS = (("semi_implicit", 0.7), ("implicit_euler", 0.15), ("xpbd", 0.15))
+
+RESIDUAL_STRESS = (("links", 0.6), ("prestress", 0.2), ("none", 0.2))
+"""How the residual stress acts (``material.residual_stress_model``, or ``physics.residual_stress
+= false``) and how often; prestress only on a flat mesh or a supported one (a curved sheet
+under tension without support flattens or bulges until its springs balance the tension)."""
 
 START_MARGIN = 3e-3
 """Clearance [m] of the tool from the undeformed mesh at its start and end poses (earlier cuts
@@ -150,10 +155,21 @@ def make_case(seed: int, *, kind: str | None = None, quick: bool = False) -> dic
     # unsupported sheet sags about 1 cm, and strokes planned on the undeformed surface after
     # the first would pass above it.
     sim["foundation"] = sim["gravity"]
+    sim["residual"] = _residual_stress(seed, kind, sim["foundation"])
     count = 2 if quick else int(rng.integers(2, 5))
     surface = build_surface(surface_spec)
     return {"seed": int(seed), "kind": kind, "quick": quick, "surface": surface_spec, "sim": sim,
             "strokes": _plan_strokes(surface, rng, count, quick)}
+
+
+def _residual_stress(seed: int, kind: str, supported: bool) -> str:
+    """The residual-stress model of case ``seed`` (``RESIDUAL_STRESS``), from a stream of its own
+    so that the draws of cases made before it existed stay the same."""
+    names, weights = zip(*RESIDUAL_STRESS)
+    drawn = str(np.random.default_rng([seed, 1]).choice(names, p=weights))
+    if drawn == "prestress" and not (supported or kind in ("flat", "rotated", "delaunay")):
+        return "links"
+    return drawn
 
 
 def _line(start, heading_deg, length, *, tilt, radius, depth, speed, tool_length=0.04) -> dict:

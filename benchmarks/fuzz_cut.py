@@ -64,12 +64,14 @@ BENDING_RIGIDITY = 0.0
 
 def make_simulator(case: dict, surface):
     s = case["sim"]
+    residual = s.get("residual", "links")
     material = wc.Material(foundation_stiffness=DEFAULT_FOUNDATION_STIFFNESS if s.get("foundation") else 0.0,
-                           bending_rigidity=BENDING_RIGIDITY)
+                           bending_rigidity=BENDING_RIGIDITY,
+                           residual_stress_model="prestress" if residual == "prestress" else "links")
     model = wc.TissueModel.from_surface(surface, material=material)
     gravity = {} if s["gravity"] else {"gravity": None}  # the Simulator's default: standard gravity
     sim = wc.Simulator(model, dt=1e-3, cutting=wc.CutSettings(interval=s["interval"]),
-                       integrator=s["integrator"], **gravity)
+                       integrator=s["integrator"], residual_stress=residual != "none", **gravity)
     return model, sim
 
 
@@ -81,6 +83,7 @@ def _stroke_row(case, index, spec, stroke, result, sim, surface, wall) -> dict:
         "spacing_mm": 1e3 * surface.spacing, "nodes": len(surface.points),
         "integrator": case["sim"]["integrator"], "interval_ms": 1e3 * case["sim"]["interval"],
         "gravity": case["sim"]["gravity"], "foundation": case["sim"].get("foundation", False),
+        "residual": case["sim"].get("residual", "links"),
         "path": spec["path"], "length_mm": 1e3 * stroke.length,
         "tilt_deg": spec["tilt_deg"], "radius_mm": 1e3 * spec["radius"], "depth_mm": 1e3 * spec["depth"],
         "speed_mm_s": 1e3 * spec["speed"], "events": result.events, "edits": result.edits,

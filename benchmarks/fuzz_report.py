@@ -121,6 +121,8 @@ def _breakdown(rows) -> list[str]:
     }
     for name in sorted({r["integrator"] for r in ran}):
         groups[f"integrator {name}"] = lambda r, name=name: r["integrator"] == name
+    for name in sorted({r.get("residual", "links") for r in ran}):
+        groups[f"residual stress: {name}"] = lambda r, name=name: r.get("residual", "links") == name
     out = ["| strokes | n | coverage median | covered | split | holes | no incision |", "|---|---|---|---|---|---|---|"]
     for label, test in groups.items():
         part = [r for r in ran if test(r)]

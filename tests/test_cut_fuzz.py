@@ -47,7 +47,10 @@ def cut_cases(draw):
               "depth": draw(st.floats(0.001, 0.003)), "speed": draw(st.floats(0.02, 0.04))}
     sim = {"integrator": draw(st.sampled_from(["semi_implicit"] * 4 + ["implicit_euler", "xpbd"])),
            "interval": draw(st.sampled_from([0.0, 1.0 / 120, 1.0 / 60, 1.0 / 30])),
-           "gravity": draw(st.booleans())}
+           "gravity": draw(st.booleans()),
+           "residual": draw(st.sampled_from(["links"] * 3 + ["prestress", "none"]))}
+    if sim["residual"] == "prestress" and kind not in ("flat", "rotated", "delaunay"):
+        sim["residual"] = "links"  # unsupported, a curved sheet under tension changes its shape
     return {"mesh": mesh, "stroke": stroke, "sim": sim}
 
 
@@ -87,8 +90,10 @@ def cut(case):
         surf = make_surface(case["mesh"])
         stroke = make_stroke(surf, case["stroke"])
         s = case["sim"]
-        sim = wc.Simulator(wc.TissueModel.from_surface(surf), dt=1e-3, device=DEVICE, integrator=s["integrator"],
-                           cutting=wc.CutSettings(interval=s["interval"]),
+        material = wc.Material(residual_stress_model="prestress" if s["residual"] == "prestress" else "links")
+        sim = wc.Simulator(wc.TissueModel.from_surface(surf, material=material), dt=1e-3, device=DEVICE,
+                           integrator=s["integrator"], cutting=wc.CutSettings(interval=s["interval"]),
+                           residual_stress=s["residual"] != "none",
                            **({} if s["gravity"] and s["integrator"] != "xpbd" else {"gravity": None}))
         _RUNS[key] = (surf, run_stroke(sim, stroke, surf))
     return _RUNS[key]
@@ -129,7 +134,8 @@ def test_no_hole_open_after_the_stroke(case):
 
 @pytest.mark.xfail(strict=False, reason="a 0.54 mm tool on a 1.8 mm dome mesh (lip offset 0.14 mm): tissue "
                                         "nodes at the curve leave no room for the last lips, and the slit is "
-                                        "closed over where the end's hole was (coverage 0.66)")
+                                        "closed over where the end's hole was (coverage 0.63); a zigzag on a "
+                                        "cylinder opens 0.90 of its path")
 @fuzz
 def test_the_cut_opens_the_whole_stroke(case):
     _, result = cut(case)
