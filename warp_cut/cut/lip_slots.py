@@ -33,7 +33,7 @@ def lips_for_chain(incision, chain, theta_of, lip_slots, onto_opening: bool = Fa
     starts = [s for s in lip_slots if s[3] == -1]
     # a loop from a station's lip round to itself (the slit's start node is gone, so the hole
     # round the start touches the slit at that lip only): every slot, starting from that lip
-    looped = closed and chain[0] in lip_node_ids and all(s[0] != chain[0] for s in starts)
+    looped = closed and chain[0] in lip_node_ids and bool(starts) and starts[0][0] < 0
     closed = closed and not looped
     if closed and not starts:
         return []
