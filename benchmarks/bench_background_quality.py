@@ -28,8 +28,8 @@ OVERRIDES = {"straight_incision": ["duration=5.0"]}
 pull the lips together until about 4 s, in the loop and in the background alike; at 3 s the
 width has settled in neither (the loop's median only seemed to, its pairs closing and opening
 about it)."""
-COLUMNS = ["scene", "duration_s", "spacing_mm", "cutting", "repeat", "cut_events", "incisions", "unfilled_holes", "coverage",
-           "lip_deviation_mm", "lip_deviation_3d_mm", "slivers", "width_peak_mm", "width_peak_time_s",
+COLUMNS = ["scene", "duration_s", "spacing_mm", "cutting", "repeat", "cut_events", "incisions", "unfilled_holes",
+           "coverage", "lip_deviation_mm", "lip_deviation_3d_mm", "slivers", "width_peak_mm", "width_peak_time_s",
            "width_plateau_mm", "width_settling_time_s", "max_gap_mm", "tick_p99_ms", "realtime_factor"]
 
 
@@ -81,8 +81,9 @@ def _report(rows, pinned, load_before, load_after) -> str:
     lag = ("" if not background else
            f" Background runs: ticks' p99 {np.median([r['tick_p99_ms'] for r in background]):.3g} ms (median).")
     return "\n\n".join([
-        "Each bundled scene (the straight incision run to 5 s, see `OVERRIDES`) run to its end with the cut in the step (`in loop`, deterministic, one "
-        "run) and with the cut in a worker process, the loop paced at real time (`background`, "
+        "Each bundled scene (the straight incision run to 5 s, see `OVERRIDES`) run to its end with the "
+        "cut in the step (`in loop`, deterministic, one run) and with the cut in a worker process, the "
+        "loop paced at real time (`background`, "
         "`warp-cut run SCENE --cut-in-background`; each repeat a row). Metrics as in metrics.json: "
         "`lip_deviation_mm` is `incision.max_deviation_m` (in-plane), `_3d_` the 3D one, `slivers` "
         "the triangles the cut made with an angle under 10 degrees, `width_*` the width curve "

@@ -2,8 +2,9 @@
 all drawn from one integer seed (so any case can be replayed alone), and the named cases.
 
 A case is a plain dict (JSON-able): ``surface`` (generator name and arguments), ``sim``
-(integrator, cut interval [s], gravity and support on/off, residual-stress model) and ``strokes`` (path kind and parameters in
-the surface's parameter plane, tilt [deg], tool radius, depth, length [m], speed [m/s]).
+(integrator, cut interval [s], gravity and support on/off, residual-stress model) and
+``strokes`` (path kind and parameters in the surface's parameter plane, tilt [deg], tool
+radius, depth, length [m], speed [m/s]).
 """
 
 from __future__ import annotations
