@@ -6,9 +6,12 @@ pushes harder than a threshold) a cut event runs:
 * the contact point is where the axis crosses the current, deformed skin around it, with the
   skin's normal there (``warp_cut.cut.surface``): the cut follows curved and sagging skin;
 * Stage 1 - the tool's cross-section circle sweeps a capsule from the previous contact point to
-  this one; the nodes inside are deleted with their springs, the springs passing through it are
-  deleted (each whose two nodes survive becomes a residual-stress link), and the triangles
-  touched form the grey area (Warp kernels find the hits; the edit is host-side);
+  this one; the nodes inside are deleted with their springs, and so are the tissue's nodes whose
+  rest position lies within half the circle's radius of that stretch carried into the rest
+  shape (the material the blade passed through, wherever the tool has pushed it); the springs
+  passing through the capsule are deleted (each whose two nodes survive becomes a
+  residual-stress link), and the triangles touched form the grey area (Warp kernels find the
+  hits; the edit is host-side);
 * Stage 2 - the contact path is refitted with a C1 chain of cubic Bezier segments whose end is
   the tool's contact point;
 * Stage 3 - the grey area is re-meshed by shortest-distance node matching (``warp_cut.cut.remesh``).
