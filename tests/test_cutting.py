@@ -863,3 +863,20 @@ def test_a_hole_round_the_lost_start_node_is_filled_from_the_lip_it_touches():
     path = strokes.zigzag([-0.004920985520213018, -0.001455083929119989], 0.5, 0.008381704527728823, 1.5 * h, 6 * h)
     assert_no_hole_after(sim, surface, path, (71.366061510393, 0.0009096730350594641, 0.002682316691734213,
                                               0.0211849249172829, 0.04), min_coverage=0.85)
+
+
+def test_a_sliver_the_settling_tissue_makes_after_the_stroke_is_flipped():
+    """A thick tool (r 2.7 mm, 40 degrees) on an arc across a turned 3 mm grid, no gravity: the
+    fill's triangles were fine when the incision ended, but the tissue settling afterwards
+    pulled a lip almost onto the line from the other lip to a border node (a cap of 174
+    degrees). Slivers are flipped at every event while no incision is cut, not only when one
+    ends: none is left after the stroke."""
+    surface = flat_grid(0.04227846617263268, 0.002987891284247694, angle=0.8319276727450665)
+    sim = Simulator(TissueModel.from_surface(surface), dt=1e-3, device=DEVICE, gravity=None,
+                    cutting=CutSettings(interval=0.005277103566928939))
+    path = strokes.arc([-0.00109728007205582, -0.005128127063478125], 6.260961398504918, 0.013150921325622351,
+                       0.00978092113110658)
+    result = one_valid_incision(sim, surface, path, 39.649784451439864, 0.00274717946471093, 0.003354264661957709,
+                                0.03474390778456375, 0.048649142632460306)
+    assert result.unfilled_holes == 0
+    assert result.slivers == 0, result.min_new_angle_deg
