@@ -869,8 +869,8 @@ def test_a_sliver_the_settling_tissue_makes_after_the_stroke_is_flipped():
     """A thick tool (r 2.7 mm, 40 degrees) on an arc across a turned 3 mm grid, no gravity: the
     fill's triangles were fine when the incision ended, but the tissue settling afterwards
     pulled a lip almost onto the line from the other lip to a border node (a cap of 174
-    degrees). Slivers are flipped at every event while no incision is cut, not only when one
-    ends: none is left after the stroke."""
+    degrees). Slivers are flipped at every event while the tool is away, not only when the
+    incision ends: none is left after the stroke."""
     surface = flat_grid(0.04227846617263268, 0.002987891284247694, angle=0.8319276727450665)
     sim = Simulator(TissueModel.from_surface(surface), dt=1e-3, device=DEVICE, gravity=None,
                     cutting=CutSettings(interval=0.005277103566928939))

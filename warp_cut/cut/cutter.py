@@ -205,9 +205,9 @@ class Cutter:
             return
         self._last_event = sim.time
         self._retry_holes(sim)
-        if self.current is None and self.incisions:
-            self._flip_slivers(sim)  # the tissue settling after a stroke can thin its triangles
         if not cutting:
+            if not any(inc.open_chains for inc in self.incisions):
+                self._flip_slivers(sim)  # the tissue settling after a stroke can thin its triangles
             return
         poses, self._poses = self._poses, []
         tip_before, self._tip_before = self._tip_before, tool.p0
@@ -380,15 +380,14 @@ class Cutter:
             self._count(report, result)
         else:
             self.editor.finish()
-        self._flip_slivers(sim)
+        if not inc.open_chains:
+            self._flip_slivers(sim)
 
     def _flip_slivers(self, sim: CutHost) -> None:
         """Flip the slivers among the triangles the cut made (``warp_cut.cut.flips``), once the
         tool has left the skin and no hole is open, as an edit of its own: when an incision
-        ends, and at every later event while no incision is cut (the tissue settling after a
-        stroke can pull its triangles thin)."""
-        if any(inc.open_chains for inc in self.incisions):
-            return
+        ends, and at every event while there is no tool (the tissue settling after a stroke can
+        pull its triangles thin)."""
         editor = self.editor
         editor.begin()
         positions = NodePositions(self._positions_view(sim))
