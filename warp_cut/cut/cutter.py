@@ -388,6 +388,8 @@ class Cutter:
         tool has left the skin and no hole is open, as an edit of its own: when an incision
         ends, and at every event while there is no tool (the tissue settling after a stroke can
         pull its triangles thin)."""
+        if not self.new_triangles:
+            return  # nothing cut yet: no positions to read, no edit to begin
         editor = self.editor
         editor.begin()
         positions = NodePositions(self._positions_view(sim))
@@ -509,10 +511,11 @@ class Cutter:
             sim.state.positions, dm.spring_indices, self._index_array(near_springs),
             wp.vec3(*a), wp.vec3(*b), float(r)])
         editor.begin()
-        doomed = {int(v) for v in nodes} | self._cut_in_material(sim, near, a, b, r)
+        x = self._positions_view(sim)
+        doomed = {int(v) for v in nodes} | self._cut_in_material(x, sim.tool_pose, near, a, b, r)
         own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
         pairs = model.spring_table.column("pairs")
-        crossing = separated_by(self._positions_view(sim), pairs[springs], a, b, normal)
+        crossing = separated_by(x, pairs[springs], a, b, normal)
         cut = [sl for sl, k in zip(springs, crossing) if k and not ({int(v) for v in pairs[sl]} & own_lips)]
         separated = []
         editor.delete_springs(cut, residual=True, doomed_nodes=doomed, pending=separated)
@@ -522,23 +525,22 @@ class Cutter:
         editor.delete_springs(springs, residual=False)  # grazed on one side, or at own lips
         editor.delete_nodes(sorted(doomed))
 
-    def _cut_in_material(self, sim: CutHost, near: np.ndarray, a: np.ndarray, b: np.ndarray,
-                         r: float) -> set[int]:
+    def _cut_in_material(self, positions: np.ndarray, tool: Tool | None, near: np.ndarray, a: np.ndarray,
+                         b: np.ndarray, r: float) -> set[int]:
         """Nodes of the original tissue (not lips) among ``near`` whose rest positions lie
         within half the sweep radius ``r`` of the swept segment carried into the rest shape:
         material the blade passed through. The tool's front pushes such a node ahead of it (up
         a tilted shaft, off the path), so the capsule on the skin never reaches it; the blade
         would have cut it. The segment's ends a, b [m] are carried by the displacement of the
-        tissue around them (nodes beyond 1.5 tool radii of the axis, Gaussian weights of two
-        spacings)."""
+        tissue around them (nodes beyond 1.5 radii of the ``tool``'s axis, Gaussian weights of
+        two spacings); ``positions`` are the current node positions [m] (node_count, 3)."""
         model = self.model
         near = np.asarray(near, dtype=np.int64)
         original = near[model.node_class[near] != NodeClass.LIP]
         if len(original) == 0:
             return set()
-        x = self._positions_view(sim)[original].astype(np.float64)
+        x = positions[original].astype(np.float64)
         rest = model.points[original]
-        tool = sim.tool_pose
         free = np.ones(len(original), dtype=bool)
         if tool is not None:
             _, _, _, from_axis = closest_on_polyline(x, np.stack([tool.p0, tool.p1]))
