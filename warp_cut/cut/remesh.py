@@ -329,7 +329,8 @@ def _fill_chain(chain, editor, incision, positions, slots: LipSlots, notch: bool
             if tris is not None:
                 return "filled", tris
         slots.discard()
-        if not any(v < PLACEHOLDER and v not in slots.lip_nodes for v in lips):
+        known = slots.lip_nodes
+        if not any(v < PLACEHOLDER and v not in known for v in lips):
             break  # nothing was snapped: the same fill again would fail the same way
     return "unfilled", None
 
