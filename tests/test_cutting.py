@@ -610,6 +610,14 @@ def supported_sim(surface, interval: float, integrator: str = "semi_implicit") -
     return Simulator(model, dt=1e-3, device=DEVICE, integrator=integrator, cutting=CutSettings(interval=interval))
 
 
+def unsupported_sim(surface, interval: float, integrator: str = "semi_implicit") -> Simulator:
+    """A cutting Simulator on ``surface`` without gravity or support, as the fuzz cases below
+    ran; events every ``interval`` [s] (0: every step)."""
+    model = TissueModel.from_surface(surface)
+    return Simulator(model, dt=1e-3, device=DEVICE, integrator=integrator, gravity=None,
+                     cutting=CutSettings(interval=interval))
+
+
 def assert_no_hole_after(sim, surface, path, tool, min_coverage: float = 0.95):
     """Cut ``path`` with ``tool`` (tilt [deg], radius, depth [m], speed [m/s], length [m]) as one
     valid incision (``one_valid_incision``); no hole is left open after it, and it covers at
@@ -752,9 +760,7 @@ def test_a_hole_no_fill_closes_once_the_tool_has_gone_is_opened_back_a_station_a
     ahead could be neither filled nor closed over (one hole; fuzz seed 20261203). Once the
     tool has gone its end lips go and their stations get new ones; the fill then passes."""
     surface = saddle(0.04582273742117599, 26.66958222595919, 0.0026863294259437806, jitter=0.4, seed=942065371)
-    model = TissueModel.from_surface(surface)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, integrator="xpbd", gravity=None,
-                    cutting=CutSettings(interval=0.023303958466318435))
+    sim = unsupported_sim(surface, 0.023303958466318435, "xpbd")
     path = strokes.arc([0.0043878311944394845, -0.00024049369873647123], 2.2096848650338807, 0.010790208620281965,
                        0.024230242039467942)
     assert_no_hole_after(sim, surface, path, (72.24158263016193, 0.0005852419748600667, 0.0035100470154765043,
@@ -792,14 +798,6 @@ def test_the_wound_behind_a_tool_crossing_a_curve_is_filled_while_it_cuts():
 
 
 
-def xpbd_sim(surface, interval: float) -> Simulator:
-    """A cutting Simulator on ``surface`` under XPBD, without gravity or support, as the fuzz
-    cases below ran; events every ``interval`` [s] (0: every step)."""
-    model = TissueModel.from_surface(surface)
-    return Simulator(model, dt=1e-3, device=DEVICE, integrator="xpbd", gravity=None,
-                     cutting=CutSettings(interval=interval))
-
-
 def test_a_hole_that_runs_into_an_opening_is_filled_once_it_can_be():
     """Two strokes (r 1.4 and 1.2 mm, tilted 68 degrees) on a jittered Delaunay disk under XPBD,
     a cut event every step, the second crossing the first. A hole of the incision that runs
@@ -810,7 +808,7 @@ def test_a_hole_that_runs_into_an_opening_is_filled_once_it_can_be():
     only once it has gone: the strokes open 0.99 and 0.90 of their paths."""
     surface = jittered_delaunay(radius=0.018851657020718077, spacing=0.0017195898028990217,
                                 jitter=0.1907679837492858, seed=325552691)
-    sim = xpbd_sim(surface, 0.0)
+    sim = unsupported_sim(surface, 0.0, "xpbd")
     first = strokes.line([0.00802946818590338, 0.007330454779326026], 2.9784904180916874, 0.012959909967617353)
     tool = (68.78039245672159, 0.0014180189906988724, 0.0017277536993699858, 0.026482536380724755,
             0.047225139031902945)
@@ -828,7 +826,7 @@ def test_a_tool_drawn_out_of_its_wound_does_not_start_another_incision():
     second incision started there, of no length. A new incision does not start with the axis
     at the end of the one just finished: one incision, no hole."""
     surface = saddle(0.046828748242237914, -37.63688037070533, 0.002576244845203869, jitter=0.4, seed=1533229460)
-    sim = xpbd_sim(surface, 0.011498960362683937)
+    sim = unsupported_sim(surface, 0.011498960362683937, "xpbd")
     path = strokes.line([0.004117361698077476, 0.005860798168576985], 4.4807667634299495, 0.0145561642047078)
     assert_no_hole_after(sim, surface, path, (34.06093300662745, 0.0016698938272158923, 0.0035156924137645794,
                                               0.03033737769713525, 0.03350733370293171))
@@ -844,9 +842,9 @@ def test_a_tissue_node_taken_as_a_lip_out_of_turn_does_not_block_the_fill():
     surface = jittered_delaunay(radius=0.025308066932872474, spacing=0.0023498724024553705,
                                 jitter=0.2163162961711657, seed=1160903577)
     path = strokes.line([0.006792538822878467, 0.004017769504807994], 3.68207020697412, 0.01590446732222027)
-    assert_no_hole_after(xpbd_sim(surface, 0.0), surface, path, (74.5399617658142, 0.0018056422442688023,
-                                                                 0.0022504985879017846, 0.01630176602147304,
-                                                                 0.04970137088697704))
+    tool = (74.5399617658142, 0.0018056422442688023, 0.0022504985879017846, 0.01630176602147304,
+            0.04970137088697704)
+    assert_no_hole_after(unsupported_sim(surface, 0.0, "xpbd"), surface, path, tool)
 
 
 def test_a_hole_round_the_lost_start_node_is_filled_from_the_lip_it_touches():
@@ -858,8 +856,7 @@ def test_a_hole_round_the_lost_start_node_is_filled_from_the_lip_it_touches():
     round the slit from that lip (the start gets a new node): no hole, the stroke opened."""
     h = 0.0018193460701189281
     surface = cylinder(0.015515766392778598, 0.026, 0.026 / 0.015515766392778598, h)
-    model = TissueModel.from_surface(surface)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, gravity=None, cutting=CutSettings(interval=0.0))
+    sim = unsupported_sim(surface, 0.0)
     path = strokes.zigzag([-0.004920985520213018, -0.001455083929119989], 0.5, 0.008381704527728823, 1.5 * h, 6 * h)
     assert_no_hole_after(sim, surface, path, (71.366061510393, 0.0009096730350594641, 0.002682316691734213,
                                               0.0211849249172829, 0.04), min_coverage=0.85)
@@ -872,8 +869,7 @@ def test_a_sliver_the_settling_tissue_makes_after_the_stroke_is_flipped():
     degrees). Slivers are flipped at every event while the tool is away, not only when the
     incision ends: none is left after the stroke."""
     surface = flat_grid(0.04227846617263268, 0.002987891284247694, angle=0.8319276727450665)
-    sim = Simulator(TissueModel.from_surface(surface), dt=1e-3, device=DEVICE, gravity=None,
-                    cutting=CutSettings(interval=0.005277103566928939))
+    sim = unsupported_sim(surface, 0.005277103566928939)
     path = strokes.arc([-0.00109728007205582, -0.005128127063478125], 6.260961398504918, 0.013150921325622351,
                        0.00978092113110658)
     result = one_valid_incision(sim, surface, path, 39.649784451439864, 0.00274717946471093, 0.003354264661957709,
