@@ -876,3 +876,22 @@ def test_a_sliver_the_settling_tissue_makes_after_the_stroke_is_flipped():
                                 0.03474390778456375, 0.048649142632460306)
     assert result.unfilled_holes == 0
     assert result.slivers == 0, result.min_new_angle_deg
+
+
+def test_a_lip_pushed_onto_the_curve_does_not_let_the_tissue_close_over_the_slit():
+    """A second stroke (an arc, r 1.4 mm, 40 degrees) on a jittered 1.7 mm saddle mesh under
+    gravity and the foundation, after a first stroke beside it: a lip of the slit's newest
+    station was pushed onto the curve, so the triangle joining it to the other lip and the
+    tissue ahead looked as if it lay on one side and was not reopened when the next station
+    fell under it. The slit was then closed over event after event (coverage 0.38, a hole
+    left open). A triangle joining a left lip to a right lip beyond the tip is across the
+    slit wherever its lips lie: the stroke is opened along its whole path."""
+    surface = saddle(0.04538366892699154, 24.223395008905776, 0.0016718022507812783, jitter=0.4, seed=571466834)
+    sim = supported_sim(surface, 0.028086423723617162)
+    first = strokes.line([0.015013965270377813, 0.005339971847125185], 2.77699142741516, 0.011386993042323592)
+    one_valid_incision(sim, surface, first, 54.66287201128047, 0.0017997954944738944, 0.0034165456957383385,
+                       0.03052109000630958, 0.04355538361749707)
+    second = strokes.arc([0.01067311178671475, -0.005291624327062174], 1.5820189707557626, 0.024683978026450934,
+                         0.010503226690677606)
+    assert_no_hole_after(sim, surface, second, (39.67022651546075, 0.001359424371041138, 0.0031538782484876477,
+                                                0.005533953312112034, 0.041035108032011436))

@@ -430,10 +430,21 @@ class Cutter:
         u, side, _ = inc.project(x[corners.reshape(-1)].astype(np.float64))
         u, side = u.reshape(-1, 3), side.reshape(-1, 3)
         _, _, centre_dist = inc.project(x[corners].mean(axis=1).astype(np.float64))
-        # across the curve (not only its extension beyond the end), beyond the tip
-        across = ((side.min(axis=1) != side.max(axis=1)) & (u.max(axis=1) > tip_u + 1e-9)
+        # across the curve (not only its extension beyond the end), beyond the tip; a triangle
+        # joining a left lip to a right lip is across wherever the lips lie (one pushed onto
+        # or over the curve still bounds its own side)
+        across = (((side.min(axis=1) != side.max(axis=1)) | self._joins_both_lips(inc, corners))
+                  & (u.max(axis=1) > tip_u + 1e-9)
                   & (u.min(axis=1) < inc.length - 1e-9) & (centre_dist <= inc.sweep_radius + self.spacing))
         self.editor.delete_triangles(tris[across])
+
+    @staticmethod
+    def _joins_both_lips(inc: Incision, corners: np.ndarray) -> np.ndarray:
+        """(m,) bool: True for the triangles (corners (m, 3)) holding a left and a right lip
+        node of ``inc``."""
+        left = np.isin(corners, [v for v in inc.left if v >= 0]).any(axis=1)
+        right = np.isin(corners, [v for v in inc.right if v >= 0]).any(axis=1)
+        return left & right
 
     def _positions_view(self, sim: CutHost) -> np.ndarray:
         # zero-copy on the CPU; a copy from a GPU
