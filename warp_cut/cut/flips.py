@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh.geometry import SLIVER_DEG, triangle_min_angles
+from ..mesh.geometry import SLIVER_DEG, cross3, triangle_min_angles
 from .classes import SpringClass
 
 __all__ = ["flip_slivers", "FACING_COS"]
@@ -24,7 +24,7 @@ FACING_COS = 0.5
 
 def _normal(x: np.ndarray) -> np.ndarray:
     """Unit normal of the triangle x (3, 3) by its winding (zero if degenerate)."""
-    n = np.cross(x[1] - x[0], x[2] - x[0])
+    n = cross3(x[1] - x[0], x[2] - x[0])
     length = np.linalg.norm(n)
     return n / length if length > 0 else n
 

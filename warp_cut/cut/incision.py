@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mesh.geometry import cross3
 from .bezier import BezierChain, fit_chain
 
 __all__ = ["Incision", "polyline_distance"]
@@ -241,7 +242,7 @@ class Incision:
         x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         k, t, closest, dist = closest_on_dense_polyline(x, self._poly)
         u = self._cum[k] + t * np.diff(self._cum)[k]
-        lateral = np.einsum("ij,ij->i", np.cross(self.tangent_at(u), x - closest), self.normal_at(u))
+        lateral = np.einsum("ij,ij->i", cross3(self.tangent_at(u), x - closest), self.normal_at(u))
         return u, np.where(lateral >= 0.0, 1, -1), dist
 
     def chart(self, points) -> np.ndarray:
@@ -259,7 +260,7 @@ class Incision:
                 t, n = self.tangent_at(end)[0], self.normal_at(end)[0]
                 rel = x[mask] - self.point_at(end)[0]
                 u[mask] = end + rel @ t
-                v[mask] = rel @ np.cross(n, t)
+                v[mask] = rel @ cross3(n, t)
         return np.stack([u, v], axis=1)
 
     def theta(self, u, side) -> np.ndarray:
@@ -295,7 +296,7 @@ class Incision:
         c = self.point_at(u)[0]
         if side == 0:
             return c
-        return c + side * self.lip_offset * _unit(np.cross(self.normal_at(u)[0], self.tangent_at(u)[0]))
+        return c + side * self.lip_offset * _unit(cross3(self.normal_at(u)[0], self.tangent_at(u)[0]))
 
     def lip_nodes(self) -> list[tuple[int, float, int, int]]:
         """Every lip slot as (node or -1, theta, side, station index): start (side 0, index -1),

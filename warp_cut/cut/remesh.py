@@ -18,7 +18,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from ..mesh.geometry import triangle_min_angles
+from ..mesh.geometry import cross3, triangle_min_angles
 from .classes import NodeClass, SpringClass
 from .incision import closest_on_polyline
 from .lip_slots import PLACEHOLDER, LipSlots, lips_for_chain
@@ -427,9 +427,9 @@ def _views(incision, positions, nodes):
 
 def _plane_view(nodes, x, n) -> _HoleCoordinates:
     """Nodes at ``x`` (k, 3) [m] seen along the unit normal ``n``."""
-    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 = cross3(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
-    return _HoleCoordinates(nodes, x @ np.stack([e1, np.cross(n, e1), n]).T)
+    return _HoleCoordinates(nodes, x @ np.stack([e1, cross3(n, e1), n]).T)
 
 
 def _chart_view(incision, nodes, x) -> _HoleCoordinates:
@@ -445,7 +445,7 @@ def _faces_out(tris, positions, incision, tool=None) -> bool:
     ``tool``, only the triangles within its reach count (``_TOOL_REACH``)."""
     p = positions[[v for t in tris for v in t]].reshape(-1, 3, 3)
     centres = p.mean(axis=1)
-    normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    normals = cross3(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     u, _, _ = incision.project(centres)
     out = np.einsum("ij,ij->i", normals, incision.normal_at(u)) > 0.0
     if tool is not None:

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..mesh.geometry import cross3
 from .classes import NodeClass
 from .topology import TopologyEditor
 
@@ -77,7 +78,7 @@ def _check_edges(editor, nodes) -> None:
 
 def _area(points, corners) -> float:
     p = points[list(corners)]
-    return 0.5 * float(np.linalg.norm(np.cross(p[1] - p[0], p[2] - p[0])))
+    return 0.5 * float(np.linalg.norm(cross3(p[1] - p[0], p[2] - p[0])))
 
 
 def open_slit(model, start, end, *, normal=(0.0, 0.0, 1.0), tolerance: float | None = None,
@@ -100,7 +101,7 @@ def open_slit(model, start, end, *, normal=(0.0, 0.0, 1.0), tolerance: float | N
     nodes, arc, length, t = _line_nodes(model, start, end, tol)
     _check_edges(editor, nodes)
     interior, line = nodes[1:-1], {int(v) for v in nodes}
-    side_dir = np.cross(np.asarray(normal, np.float64), t)
+    side_dir = cross3(np.asarray(normal, np.float64), t)
     corners = model.triangle_table.column("corners")
     x = model.points
     upper_tris = sorted({tr for v in interior for tr in editor.node_triangles[int(v)]

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..mesh.geometry import cross3
+
 __all__ = ["Crossing", "axis_triangle_hits", "fit_height_field", "locate_crossing"]
 
 _PARALLEL = 1e-12
@@ -71,14 +73,14 @@ def axis_triangle_hits(p0, p1, corners: np.ndarray) -> tuple[np.ndarray, np.ndar
     d = np.asarray(p1, np.float64) - np.asarray(p0, np.float64)
     e1 = corners[:, 1] - corners[:, 0]
     e2 = corners[:, 2] - corners[:, 0]
-    pvec = np.cross(d, e2)
+    pvec = cross3(d, e2)
     det = np.einsum("ij,ij->i", e1, pvec)
     scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1) * np.linalg.norm(d)
     ok = np.abs(det) > _PARALLEL * np.maximum(scale, 1e-300)
     inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
     s = np.asarray(p0, np.float64) - corners[:, 0]
     u = np.einsum("ij,ij->i", s, pvec) * inv
-    q = np.cross(s, e1)
+    q = cross3(s, e1)
     v = (q @ d) * inv
     t = np.einsum("ij,ij->i", e2, q) * inv
     hit = ok & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t >= 0.0) & (t <= 1.0)
@@ -88,9 +90,9 @@ def axis_triangle_hits(p0, p1, corners: np.ndarray) -> tuple[np.ndarray, np.ndar
 def _frame(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit vectors completing ``normal`` to a right-handed frame."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(normal, helper)
+    e1 = cross3(normal, helper)
     e1 /= np.linalg.norm(e1)
-    return e1, np.cross(normal, e1)
+    return e1, cross3(normal, e1)
 
 
 @dataclass(frozen=True)
@@ -262,7 +264,7 @@ def locate_crossing(p0, p1, positions: np.ndarray, corners: np.ndarray, *, reach
     if len(positions) < 3 or len(corners) == 0:
         return None
     p0, p1 = np.asarray(p0, np.float64), np.asarray(p1, np.float64)
-    tri_normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    tri_normals = cross3(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     outward = tri_normals.sum(axis=0)
     if not np.linalg.norm(outward) > 0:
         return None

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mesh.geometry import cross3
 from .incision import Incision
 from .topology import TopologyEditor
 
@@ -23,7 +24,7 @@ def separated_by(x: np.ndarray, pairs: np.ndarray, a, b, normal) -> np.ndarray:
     node positions [m] (n, 3)."""
     if not len(pairs):
         return np.zeros(0, dtype=bool)
-    lateral = (x[pairs.reshape(-1)] - a) @ np.cross(normal, np.asarray(b, np.float64) - a)
+    lateral = (x[pairs.reshape(-1)] - a) @ cross3(normal, np.asarray(b, np.float64) - a)
     return lateral[0::2] * lateral[1::2] < 0.0
 
 

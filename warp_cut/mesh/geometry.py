@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["triangle_angles", "triangle_min_angles", "triangle_areas", "triangle_normals",
+__all__ = ["cross3", "triangle_angles", "triangle_min_angles", "triangle_areas", "triangle_normals",
            "half_edges", "edges_of", "edge_keys", "boundary_nodes", "compact_surface", "SLIVER_DEG"]
 
 SLIVER_DEG = 10.0
@@ -92,9 +92,21 @@ def _checked(points, triangles) -> tuple[np.ndarray, np.ndarray]:
 # --------------------------------------------------------------------------
 # geometry kernels on corner arrays (t, 3, 3)
 # --------------------------------------------------------------------------
+def cross3(a, b) -> np.ndarray:
+    """a x b of 3-vectors along the last axis, shapes (..., 3) broadcast against each other.
+
+    The same as ``np.cross`` for 3-vectors, without its axis handling: a few microseconds
+    instead of ~20 on the small arrays a cut event works on, where it is called thousands of
+    times per second of cutting."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def _cross_of_corners(c: np.ndarray) -> np.ndarray:
     """(p1 - p0) x (p2 - p0) [m^2], shape (t, 3), of corners c [m], shape (t, 3, 3)."""
-    return np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    return cross3(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
 
 
 def _angles_of_corners(c: np.ndarray) -> np.ndarray:
@@ -106,7 +118,7 @@ def _angles_of_corners(c: np.ndarray) -> np.ndarray:
     # at each vertex: vector to the next vertex (a) and to the previous one (b)
     a = np.stack([p1 - p0, p2 - p1, p0 - p2], axis=1)
     b = np.stack([p2 - p0, p0 - p1, p1 - p2], axis=1)
-    sin_part = np.linalg.norm(np.cross(a, b), axis=-1)
+    sin_part = np.linalg.norm(cross3(a, b), axis=-1)
     cos_part = np.einsum("tij,tij->ti", a, b)
     # atan2 is well conditioned for all angles and atan2(0, 0) == 0 (no NaN)
     ang = np.degrees(np.arctan2(sin_part, cos_part))
