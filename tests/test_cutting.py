@@ -22,7 +22,7 @@ from warp_cut.cut.cutter import CutSettings
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh.checks import check_mesh, triangle_min_angles
-from warp_cut.mesh.surfaces import cylinder, flat_grid, jittered_delaunay, saddle
+from warp_cut.mesh.surfaces import cylinder, dome, flat_grid, jittered_delaunay, saddle
 from warp_cut.sim import strokes
 from warp_cut.verify.stroke_check import run_stroke
 from warp_cut.verify.validity import cut_problems
@@ -895,3 +895,34 @@ def test_a_lip_pushed_onto_the_curve_does_not_let_the_tissue_close_over_the_slit
                          0.010503226690677606)
     assert_no_hole_after(sim, surface, second, (39.67022651546075, 0.001359424371041138, 0.0031538782484876477,
                                                 0.005533953312112034, 0.041035108032011436))
+
+
+def test_a_closed_hole_touching_the_slit_at_one_lip_is_opened_back_once_the_tool_has_gone():
+    """Four strokes on a 1.7 mm dome under XPBD with gravity and the foundation, a cut event
+    every step; the last a thick tool (r 3.1 mm, 74 degrees) drawn in a zigzag across the
+    earlier cuts. When it left, the tissue beyond its slit's tip was a closed hole of 20
+    nodes touching the slit at one lip: no fill closes it without joining the slit's sides,
+    and it spans too much of the curve to be closed over, so it stayed open. Once the tool
+    has gone, such a hole is opened back by that lip's station (as an open one is by its end
+    lips), and the fill gives the stations beyond it their lips: no hole, 0.60 of the stroke
+    opened (0.41 with the hole)."""
+    surface = dome(0.03824401342193363, 0.02369411738274433, 0.0016640125147081384, seed=1595930803)
+    sim = supported_sim(surface, 0.0, "xpbd")
+    earlier = [
+        (strokes.line([-0.006656050058832554, -0.005764308439809899], 1.974226117067275, 0.01176763336215509),
+         (45.592824804821774, 0.0022495116386117803, 0.0016801838502343183, 0.014207051494555683,
+          0.04026428382489911)),
+        (strokes.line([-0.010661819499559147, -0.007262831817727671], 1.155171124601644, 0.011697369943822665),
+         (33.89031834829305, 0.00045218829778666877, 0.001089240823208989, 0.026982255349827577,
+          0.03831933222138794)),
+        (strokes.arc([-0.016530580950033978, -0.01019973837659601], 1.0565210436312966, 0.02725489014213224,
+                     -0.021245425732069566),
+         (55.00383399406928, 0.0008959149967073036, 0.0011100664896029773, 0.02826044809026842,
+          0.04340795717346328)),
+    ]
+    for path, tool in earlier:
+        one_valid_incision(sim, surface, path, *tool)
+    last = strokes.zigzag([-0.007002189609525514, -0.010395852182969161], 1.2155217866691008, 0.022108052663544143,
+                          0.002603699679355064, 0.012869540201519173)
+    assert_no_hole_after(sim, surface, last, (74.3084937751052, 0.0031040609890540314, 0.0025703138063052446,
+                                              0.012907917542793617, 0.042295742719601404), min_coverage=0.55)

@@ -210,8 +210,9 @@ def fill_hole(editor, incision, removed_corners, positions, open_chains=(), *,
         if incision.open_end or not unfilled:
             break
         # once the tool has gone, a hole no fill closes is opened back by one station: its end
-        # lips go (their stations get new lips), and the fill is tried again
-        ends = [v for chain in unfilled if chain[0] != chain[-1] for v in (chain[0], chain[-1])
+        # lips go (their stations get new lips; a closed hole's one lip, where it touches the
+        # slit), and the fill is tried again
+        ends = [v for chain in unfilled for v in dict.fromkeys((chain[0], chain[-1]))
                 if v in slots.lip_nodes and editor.model.active[v]]
         if not ends:
             break
