@@ -148,23 +148,23 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
     def lips_only(tri) -> bool:  # between the lips: it would cover the slit and bury one
         return all(v in lip_set for v in tri)
 
-    candidates = []
+    candidates = []  # (smallest angle [deg], triangles)
     if lips:
         strip = zip_strip(chain, lips, chart, _UP, lips_only)
         if _acceptable(strip, editor, chart, _UP, slots, lips_only):
-            candidates.append(strip)
-    if not candidates or _min_angle(candidates[0], positions) < min_angle_deg:
+            candidates.append((_min_angle(strip, positions), strip))
+    if not candidates or candidates[0][0] < min_angle_deg:
         ears = ear_clip(hole_polygon(chain, lips), chart, _UP, lips_only)
         if _acceptable(ears, editor, chart, _UP, slots, lips_only):
-            candidates.append(ears)
-    facing = [c for c in candidates if _faces_out(c, positions, slots.incision, tool)]
+            candidates.append((_min_angle(ears, positions), ears))
+    facing = [c for c in candidates if _faces_out(c[1], positions, slots.incision, tool)]
     # a triangle turned over on the skin (nodes the tool displaced) waits while the tool cuts;
     # once it has gone, it is accepted rather than leave a hole
     candidates = facing if facing or slots.incision.open_end else candidates
     if not candidates:
         return None
-    best = max(candidates, key=lambda c: _min_angle(c, positions))
-    if _min_angle(best, positions) < min_angle_deg and defer_slivers:
+    angle, best = max(candidates, key=lambda c: c[0])
+    if angle < min_angle_deg and defer_slivers:
         return None  # the tool moves on: the next event may shape it better
     return best
 
@@ -414,16 +414,19 @@ class _HoleCoordinates:
 def _views(incision, positions, nodes):
     """The hole's coordinates to triangulate it in, best first: seen along the skin's mean
     outward normal there, or, where the skin turns by more than 30 degrees across the hole
-    (one plane would fold it), first in the slit chart."""
+    (one plane would fold it), first in the slit chart. A generator: the second view is made
+    only if the first gives no fill."""
     nodes = list(dict.fromkeys(nodes))
     x = positions[nodes]
     normals = incision.normal_at(incision.project(x)[0])
     n = normals.sum(axis=0)
     n /= np.linalg.norm(n)
-    plane = _plane_view(nodes, x, n)
     if float((normals @ n).min()) >= math.cos(math.radians(30.0)):
-        return plane, _chart_view(incision, nodes, x)
-    return _chart_view(incision, nodes, x), plane
+        yield _plane_view(nodes, x, n)
+        yield _chart_view(incision, nodes, x)
+    else:
+        yield _chart_view(incision, nodes, x)
+        yield _plane_view(nodes, x, n)
 
 
 def _plane_view(nodes, x, n) -> _HoleCoordinates:
