@@ -1,7 +1,9 @@
 """Cut quality with the cut in the background: the bundled incision scenes and the width-curve
 scene, each run with the cut in the step (``warp-cut run SCENE``) and with it in a worker
 process, the loop paced at real time (``warp-cut run SCENE --cut-in-background``), as a live
-1 kHz loop runs it: there each edit lands as many steps after its event as the worker took.
+1 kHz loop runs it: there each edit lands as many steps after its event as the worker took; and
+paced at three times real time (``--pace 3``), where each edit lands three times as many steps
+late.
 
 Per run: cut events, incisions, holes left open, coverage, the lips' largest deviation from the
 path (in-plane and 3D), slivers among the triangles the cut made, the width curve (peak, its
@@ -37,14 +39,20 @@ def _mm(value) -> float | str:
     return "" if value is None else 1e3 * float(value)
 
 
-def quality_row(scene_name: str, background: bool, repeat: int) -> dict:
-    """One run of a bundled scene; its quality and timing as a table row."""
+FAST_PACE = 3.0
+"""The pace of the ``background, 3x pace`` rows (steps per step dt of wall time)."""
+
+
+def quality_row(scene_name: str, background: bool, repeat: int, pace: float = 1.0) -> dict:
+    """One run of a bundled scene (with ``background``, paced at ``pace`` times real time);
+    its quality and timing as a table row."""
     scene = load_scene(scene_name, OVERRIDES.get(scene_name, []))
-    m = run_scene(scene, cut_in_background=background).metrics
+    m = run_scene(scene, cut_in_background=background, pace=pace).metrics
+    cutting = "in loop" if not background else "background" if pace == 1.0 else f"background, {pace:g}x pace"
     inc, cut, curve = m["incision"], m["cut"], m["width_curve"]
     ticks = m.get("tick_ms") or {}
     return {"scene": scene_name, "duration_s": scene.duration, "spacing_mm": 1e3 * scene.tissue.spacing,
-            "cutting": "background" if background else "in loop", "repeat": repeat,
+            "cutting": cutting, "repeat": repeat,
             "cut_events": cut["events"], "incisions": cut["incisions"], "unfilled_holes": cut["unfilled_holes"],
             "coverage": inc["coverage"], "lip_deviation_mm": _mm(inc["max_deviation_m"]),
             "lip_deviation_3d_mm": _mm(inc["max_deviation_3d_m"]), "slivers": m["mesh"]["slivers"],
@@ -62,7 +70,8 @@ def run(quick: bool = False, cpu: int | None = None, repeats: int = 3) -> list[d
     rows = []
     with pinned_to(cpu) as pinned:
         for name in scenes:
-            runs = [quality_row(name, False, 0)] + [quality_row(name, True, k) for k in range(repeats)]
+            runs = ([quality_row(name, False, 0)] + [quality_row(name, True, k) for k in range(repeats)]
+                    + [quality_row(name, True, k, FAST_PACE) for k in range(repeats)])
             for row in runs:
                 print(f"  {name} {row['cutting']} #{row['repeat']}: {row['cut_events']} events, "
                       f"coverage {row['coverage']:.3f}, lips {row['lip_deviation_mm']:.3g} mm "
@@ -84,7 +93,8 @@ def _report(rows, pinned, load_before, load_after) -> str:
         "Each bundled scene (the straight incision run to 5 s, see `OVERRIDES`) run to its end with the "
         "cut in the step (`in loop`, deterministic, one run) and with the cut in a worker process, the "
         "loop paced at real time (`background`, "
-        "`warp-cut run SCENE --cut-in-background`; each repeat a row). Metrics as in metrics.json: "
+        "`warp-cut run SCENE --cut-in-background`) and at three times real time (`background, 3x "
+        "pace`, `--pace 3`); each repeat a row. Metrics as in metrics.json: "
         "`lip_deviation_mm` is `incision.max_deviation_m` (in-plane), `_3d_` the 3D one, `slivers` "
         "the triangles the cut made with an angle under 10 degrees, `width_*` the width curve "
         "(`width_curve` entry: peak, its time, plateau, settling time; empty: not settled within "

@@ -5,7 +5,8 @@
 The loop of the README (10 x 6 cm patch, Table 1 material, a 60 degree scalpel going 8 mm in
 along its axis over 0.2 s, then cutting at 2 cm/s for 2 s) on the straight incision and on the
 curved one of ``scenes/curved_incision.toml`` (y = 8 mm sin(pi x / 2 cm)), at 2 mm and 1 mm
-spacing, with and without cutting. Each tick is timed around the ``step`` call alone (the Tool
+spacing, with and without cutting (in the step, or in a worker with the loop paced at 1x or
+3x real time, or unpaced with a bounded edit lag). Each tick is timed around the ``step`` call alone (the Tool
 is built outside, it is the caller's), in wall time and in the thread's CPU time (the
 difference is time the machine gave other processes). The collector is frozen after set-up,
 as ``docs/haptic.md`` advises for a haptic loop.
@@ -58,18 +59,24 @@ def tools(ticks: int, curved: bool) -> list:
             for tip in (tip_at(k, curved) for k in range(ticks))]
 
 
-CUTTING = {"no": None, "in loop": False, "background": True, f"background, lag {UNPACED_LAG}": UNPACED_LAG}
-"""The rows' cut: none, in the step (the Cutter in the loop), in a worker with the loop paced
-at 1 kHz as a device would pace it, and in a worker with the loop as fast as it goes, waiting
-for an edit UNPACED_LAG steps after its event (``max_lag``)."""
+FAST_PACE = 3.0
+"""Ticks per millisecond of wall time in the ``background, 3x pace`` rows (the target's 3x
+real time)."""
+CUTTING = {"no": (None, None), "in loop": (False, None), "background": (True, 1.0),
+           "background, 3x pace": (True, FAST_PACE), f"background, lag {UNPACED_LAG}": (UNPACED_LAG, None)}
+"""The rows' cut (``cut_in_background``: None no cut, False in the step) and the loop's pace
+(ticks per ms of wall time; None: as fast as it goes): none; in the step (the Cutter in the
+loop); in a worker with the loop paced at 1 kHz as a device would pace it; the same paced at
+FAST_PACE kHz, never waiting for an edit; and in a worker with the loop as fast as it goes,
+waiting for an edit UNPACED_LAG steps after its event (``max_lag``)."""
 
 
 def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
     """The README's loop for ``ticks`` ticks; one table row for a ``CUTTING`` key."""
     model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=spacing)
     nodes, triangles = model.node_count, model.triangle_table.count
-    mode = CUTTING[cutting]
-    background, paced = mode not in (None, False), mode is True
+    mode, pace = CUTTING[cutting]
+    background = mode not in (None, False)
     made = time.perf_counter()
     sim = wc.Simulator(model, dt=1e-3, cutting=mode is not None,
                        cut_in_background=mode if background else False)
@@ -78,10 +85,10 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
     log = TickLog(ticks, budget=sim.dt, cpu_time=True)
     try:
         with frozen_gc():
-            pacer = Pacer(sim.dt)
+            pacer = Pacer(sim.dt / (pace or 1.0))
             for k, tool in enumerate(poses):
                 log.step(sim, tool)
-                if paced:
+                if pace:
                     pacer.wait(k)
             wall = time.perf_counter() - pacer.start
         if background:
@@ -247,8 +254,10 @@ def _report(rows, overhead, pinned, load_before, load_after) -> str:
         "that follows a topology edit. `cutting`: no; in loop (the cut event runs inside the "
         "step of its tick); background (`Simulator(cut_in_background=True)`: a worker process "
         "runs the event, the loop only sends positions and applies the edit; the loop is paced "
-        "at 1 kHz, so `realtime_factor` is at most 1; background, lag 50: the same with the loop "
-        "as fast as it goes, waiting for an edit 50 steps after its event; `worker_event_p50_ms`: the worker's time "
+        "at 1 kHz, so `realtime_factor` is at most 1; background, 3x pace: the same paced at 3 kHz "
+        "(3 ticks per ms of wall time: 3x real time), never waiting for an edit; background, "
+        "lag 50: the same with the loop as fast as it goes, waiting for an edit 50 steps after "
+        "its event; `worker_event_p50_ms`: the worker's time "
         "per event; `edit_lag_*_steps`: steps from the event to its edit's application; `loop_*_p99_ms`: "
         "the loop's share of an event, sending it, receiving and applying its edit, each in a "
         "tick of its own).", load,

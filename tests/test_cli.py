@@ -226,3 +226,29 @@ def test_run_cut_in_background_is_as_quiet_as_the_loop(tmp_path):
     assert "Module " not in proc.stdout + proc.stderr and "initialized" not in proc.stdout + proc.stderr
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["cut"]["incisions"] == 1 and metrics["realtime_factor"] <= 1.0 + 1e-3
+
+
+@pytest.mark.parametrize("extra", [["--cut-in-background", "--pace", "0"], ["--cut-in-background", "--pace", "nan"],
+                                   ["--cut-in-background", "--pace", "-3"], ["--cut-in-background", "--pace", "1e4"],
+                                   ["--pace", "3"]])
+def test_a_bad_pace_exits_2_and_writes_nothing(tmp_path, capsys, extra):
+    """``--pace`` outside (0, 1000], or without ``--cut-in-background`` (only a background cut's
+    run is paced): exit 2, a message naming the option and its range, nothing written."""
+    out = tmp_path / "paced"
+    assert main(["run", "--out", str(out), "--quiet", "--no-usd", *FAST, *extra]) == 2
+    err = capsys.readouterr().err
+    assert "pace" in err and "Traceback" not in err
+    assert ("(0, 1000]" in err) if "--cut-in-background" in extra else ("--cut-in-background" in err)
+    assert not out.exists()
+
+
+def test_a_background_run_paced_at_three_times_real_time(tmp_path):
+    """``--cut-in-background --pace 3``: the loop is held to three steps per step dt of wall
+    time, so it runs faster than real time but never faster than 3x (the small patch steps in
+    a fraction of that); the cut still makes its one incision."""
+    out = tmp_path / "fast"
+    assert main(["run", "--cut-in-background", "--pace", "3", "--quiet", "--no-usd", "--out", str(out),
+                 *FAST, "--set", "duration=0.5"]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["cut"]["incisions"] == 1
+    assert 1.5 < metrics["realtime_factor"] <= 3.0 + 1e-3

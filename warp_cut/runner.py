@@ -83,7 +83,8 @@ def _progress(total: int, quiet: bool):
     return tqdm(total=total, unit="frame", desc="simulating", leave=False)
 
 
-def run_scene(scene: Scene, *, quiet: bool = True, observers=(), cut_in_background: bool = False) -> RunResult:
+def run_scene(scene: Scene, *, quiet: bool = True, observers=(), cut_in_background: bool = False,
+              pace: float = 1.0) -> RunResult:
     """Run a scene to its end.
 
     Args:
@@ -96,15 +97,18 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=(), cut_in_backgrou
             per step dt of wall time, as a haptic device paces it: each edit lands as many
             steps after its event as the worker took, as it would in a live loop. The worker
             is stopped at the end.
+        pace: with ``cut_in_background``, steps per step dt of wall time (1: real time; 3: a
+            loop three times faster than real time, each tick a third of dt); (0, 1000].
 
     Returns:
         The metrics, the time series and the final mesh.
     """
+    check_pace(pace, cut_in_background)
     background = bool(cut_in_background) and scene.physics.cutting
     model, sim, path, steps_per_frame = prepare_simulation(scene, background)
     try:
         series, ticks, wall = _step_frames(scene, sim, path, steps_per_frame, quiet, observers,
-                                           Pacer(sim.dt) if background else None)
+                                           Pacer(sim.dt / pace) if background else None)
         if background:
             sim.cutter.flush(sim)
         metrics = run_metrics(scene, sim, series, steps=scene.frame_count * steps_per_frame,
@@ -115,6 +119,20 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=(), cut_in_backgrou
         return RunResult(metrics, series, final_mesh(sim), profile)
     finally:
         sim.close()
+
+
+MAX_PACE = 1000.0
+"""The fastest pace a run may ask for [steps per step dt of wall time]."""
+
+
+def check_pace(pace, cut_in_background) -> None:
+    """Raise InputError unless ``pace`` is a number in (0, MAX_PACE], and 1 without
+    ``cut_in_background`` (only a background cut's run is paced)."""
+    if isinstance(pace, bool) or not isinstance(pace, (int, float)) or not 0.0 < pace <= MAX_PACE:
+        raise InputError(f"pace: {pace!r} is not a number in (0, {MAX_PACE:g}] (steps per step of wall time)")
+    if pace != 1.0 and not cut_in_background:
+        raise InputError(f"pace: {pace!r} paces a run that cuts in the background (--cut-in-background); "
+                         "without it the run goes as fast as it can")
 
 
 def _step_frames(scene: Scene, sim: Simulator, path, steps_per_frame: int, quiet: bool, observers,
@@ -260,7 +278,7 @@ def write_outputs(result: RunResult, out_dir) -> list[Path]:
 
 def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
                      usd_chunk: int = DEFAULT_CHUNK_FRAMES, quiet: bool = True,
-                     cut_in_background: bool = False) -> tuple[RunResult, list[Path]]:
+                     cut_in_background: bool = False, pace: float = 1.0) -> tuple[RunResult, list[Path]]:
     """Run ``scene`` and write everything a run writes into ``out_dir``: metrics.json,
     timeseries.csv, final_mesh.ply, incision_profile.csv (with cutting), the pictures and
     (``usd``) the USD playback file.
@@ -275,6 +293,7 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
             ``usd_chunk`` the frames per chunk file.
         quiet: no progress bar.
         cut_in_background: cut in a worker, the loop paced at real time (``run_scene``).
+        pace: with ``cut_in_background``, the pace as a multiple of real time (``run_scene``).
 
     Returns:
         The run's result and the paths written.
@@ -282,13 +301,14 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: exists and is not a directory")
+    check_pace(pace, cut_in_background)
     final = FinalFrame()
     recorder = None
     if usd:
         recorder = UsdRecorder(usd_path or out / f"{scene.name}.usdc", scene, chunk_frames=usd_chunk)
     try:
         result = run_scene(scene, quiet=quiet, observers=[final] + ([recorder] if recorder else []),
-                           cut_in_background=cut_in_background)
+                           cut_in_background=cut_in_background, pace=pace)
     except WarpCutError:
         if recorder is not None:  # bad input or unstable: leave nothing behind
             recorder.abort()
