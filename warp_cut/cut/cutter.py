@@ -11,7 +11,7 @@ pushes harder than a threshold) a cut event runs:
   shape (the material the blade passed through, wherever the tool has pushed it); the springs
   passing through the capsule are deleted (each whose two nodes survive becomes a
   residual-stress link), and the triangles touched form the grey area (Warp kernels find the
-  hits; the edit is host-side);
+  hits; the edit is host-side; ``warp_cut.cut.swept_volume``);
 * Stage 2 - the contact path is refitted with a C1 chain of cubic Bezier segments whose end is
   the tool's contact point;
 * Stage 3 - the grey area is re-meshed by shortest-distance node matching (``warp_cut.cut.remesh``).
@@ -38,7 +38,7 @@ import warp as wp
 from ..errors import InputError
 from ..kernels import cutting as cut_kernels
 from ..kernels import scatter
-from ..kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among, segment_node_hits
+from ..kernels.cutting import segment_node_hits
 from ..mesh.checks import cuttable_problems
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
@@ -52,8 +52,9 @@ from .lip_slots import lips_inside
 from .measures import coverage, incision_width, lip_deviation
 from .remesh import fill_hole
 from .surface import Crossing, locate_crossing
+from .swept_volume import HitLists, SweptVolume
 from .topology import NodePositions, TopologyEditor
-from .wound_links import carry_links, open_links, separated_by
+from .wound_links import carry_links, open_links
 
 __all__ = ["CutSettings", "Cutter", "CutHost", "STAGES"]
 
@@ -89,24 +90,6 @@ class CutSettings:
             raise InputError(f"cutting.interval must be >= 0 s, got {self.interval}")
         if not (np.isfinite(self.force_threshold) and self.force_threshold >= 0):
             raise InputError(f"cutting.force_threshold must be >= 0 N, got {self.force_threshold}")
-
-
-class _Hits:
-    """Compact hit lists from the Stage 1 kernels, grown when they overflow."""
-
-    def __init__(self, device):
-        self.device = device
-        self.buffer = wp.zeros(1024, dtype=wp.int32, device=device)
-        self.count = wp.zeros(1, dtype=wp.int32, device=device)
-
-    def run(self, kernel, dim, inputs) -> np.ndarray:
-        while True:
-            self.count.zero_()
-            wp.launch(kernel, dim=dim, device=self.device, inputs=inputs + [self.buffer, self.count])
-            n = int(self.count.numpy()[0])
-            if n <= self.buffer.shape[0]:
-                return self.buffer.numpy()[:n].astype(np.int64)
-            self.buffer = wp.zeros(2 * n, dtype=wp.int32, device=self.device)
 
 
 class CutHost(Protocol):
@@ -178,7 +161,8 @@ class Cutter:
         """Tool poses of the steps since the last cut event (where the blade entered)."""
         self._tip_before: np.ndarray | None = None
         """The tool's tip at the last cut event [m] (None: no tool then)."""
-        self._hits = _Hits(device)
+        self._hits = HitLists(device)
+        self.swept_volume = SweptVolume(model, self.editor, self._hits, self.spacing, device)
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
                        "carried_links": 0, "lost_links": 0, "lip_nodes": 0, "lip_nodes_removed": 0,
@@ -462,7 +446,9 @@ class Cutter:
         if np.linalg.norm(point - inc.path[-1]) < 0.1 * self.spacing:
             return  # the tool has not moved enough to extend the incision
         t0 = time.perf_counter()
-        self._sweep(sim, inc, inc.path[-1], point, inc.normals[-1] if normal is None else normal)
+        a, normal_then = inc.path[-1], inc.normals[-1] if normal is None else normal
+        near = self._nodes_near(sim, a, point, inc.sweep_radius + self.edge_reach)
+        self.swept_volume.cut(sim, inc, a, point, normal_then, near, self._positions_view(sim))
         self._reopen_tip(sim, inc)  # new stations may fall there
         t1 = time.perf_counter()
         inc.extend(point, min_step=0.0, normal=normal)
@@ -502,73 +488,6 @@ class Cutter:
             return inc.sweep_radius
         sin_a = abs(float(np.dot(tool.p1 - tool.p0, inc.normals[-1]))) / tool.length
         return inc.sweep_radius / max(sin_a, 0.25)
-
-    def _sweep(self, sim: CutHost, inc: Incision, a: np.ndarray, b: np.ndarray, normal) -> None:
-        """Stage 1: delete what the capsule a-b (the swept circle) touches: the nodes inside
-        and the springs through it. A deleted spring that crosses the cut (its nodes on either
-        side of the line a-b in the skin, whose outward normal is ``normal``) and whose nodes
-        survive becomes a residual-stress link; one with both nodes on one side, grazed by the
-        capsule, joins what the cut does not separate and makes none. The links act once the
-        wound is open where they crossed (``wound_links.open_links``): under the tool there are no lips
-        yet, and links there would pull the sides together across the hole the tool is in.
-        """
-        editor, model, r = self.editor, self.model, inc.sweep_radius
-        near = self._nodes_near(sim, a, b, r + self.edge_reach)
-        near_springs = sorted({s for v in near for s in editor.node_springs[v]})
-        dm = sim.device_model
-        nodes = self._hits.run(capsule_node_hits_among, len(near), [
-            sim.state.positions, dm.node_flags, self._index_array(near), wp.vec3(*a), wp.vec3(*b), float(r)])
-        springs = self._hits.run(capsule_spring_hits_among, len(near_springs), [
-            sim.state.positions, dm.spring_indices, self._index_array(near_springs),
-            wp.vec3(*a), wp.vec3(*b), float(r)])
-        editor.begin()
-        x = self._positions_view(sim)
-        doomed = {int(v) for v in nodes} | self._cut_in_material(x, sim.tool_pose, near, a, b, r)
-        own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
-        pairs = model.spring_table.column("pairs")
-        crossing = separated_by(x, pairs[springs], a, b, normal)
-        cut = [sl for sl, k in zip(springs, crossing) if k and not ({int(v) for v in pairs[sl]} & own_lips)]
-        separated = []
-        editor.delete_springs(cut, residual=True, doomed_nodes=doomed, pending=separated)
-        known = {frozenset(link[:2]) for link in inc.pending_links}
-        inc.pending_links += [(i, j, rest, inc.length) for _, i, j, rest in separated
-                              if frozenset((i, j)) not in known]  # tissue re-closed and cut again
-        editor.delete_springs(springs, residual=False)  # grazed on one side, or at own lips
-        editor.delete_nodes(sorted(doomed))
-
-    def _cut_in_material(self, positions: np.ndarray, tool: Tool | None, near: np.ndarray, a: np.ndarray,
-                         b: np.ndarray, r: float) -> set[int]:
-        """Nodes of the original tissue (not lips) among ``near`` whose rest positions lie
-        within half the sweep radius ``r`` of the swept segment carried into the rest shape:
-        material the blade passed through. The tool's front pushes such a node ahead of it (up
-        a tilted shaft, off the path), so the capsule on the skin never reaches it; the blade
-        would have cut it. The segment's ends a, b [m] are carried by the displacement of the
-        tissue around them (nodes beyond 1.5 radii of the ``tool``'s axis, Gaussian weights of
-        two spacings); ``positions`` are the current node positions [m] (node_count, 3)."""
-        model = self.model
-        near = np.asarray(near, dtype=np.int64)
-        original = near[model.node_class[near] != NodeClass.LIP]
-        if len(original) == 0:
-            return set()
-        x = positions[original].astype(np.float64)
-        rest = model.points[original]
-        free = np.ones(len(original), dtype=bool)
-        if tool is not None:
-            _, _, _, from_axis = closest_on_polyline(x, np.stack([tool.p0, tool.p1]))
-            free = from_axis > 1.5 * tool.radius
-        if free.sum() < 3:
-            return set()
-        ends = []
-        for p in (a, b):
-            w = np.exp(-(np.linalg.norm(x[free] - p, axis=1) / (2.0 * self.spacing)) ** 2)
-            if not w.sum() > 1e-12:
-                return set()
-            ends.append(p + (w @ (rest[free] - x[free])) / w.sum())
-        _, _, _, dist = closest_on_polyline(rest, np.stack(ends))
-        return {int(v) for v in original[dist < 0.5 * r]}
-
-    def _index_array(self, idx) -> wp.array:
-        return wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=self.device)
 
     def _stage3(self, sim: CutHost, inc: Incision, point, *, defer_slivers: bool, tool: Tool | None = None):
         """Re-mesh the grey area of the current edit and the holes left open before, finish the
