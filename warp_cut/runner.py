@@ -301,7 +301,6 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: exists and is not a directory")
-    check_pace(pace, cut_in_background)
     final = FinalFrame()
     recorder = None
     if usd:

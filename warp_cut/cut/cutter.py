@@ -355,7 +355,7 @@ class Cutter:
         if inc is None or len(inc.path) < 2:
             return
         self.editor.begin()
-        self._reopen_tip(sim, inc)
+        self._reopen_tip(sim, inc, self._positions_view(sim))
         inc.open_end = False
         inc.plan_stations(clearance=0.5 * self.spacing)
         if self.editor.report.deleted_triangle_corners or inc.open_chains:
@@ -397,14 +397,14 @@ class Cutter:
             self._apply(sim, report, positions)
             self._count(report, result)
 
-    def _reopen_tip(self, sim: CutHost, inc: Incision) -> None:
+    def _reopen_tip(self, sim: CutHost, inc: Incision, x: np.ndarray) -> None:
         """Delete the triangles across the curve beyond the slit's tip (its newest live lip pair,
         or its start): the tissue re-closed there at the previous event, up to the tool. New
-        stations (and, once the tool has gone, the end) get their lips there."""
+        stations (and, once the tool has gone, the end) get their lips there. ``x``: the node
+        positions [m] (node_count, 3) the event's Stage 1 read."""
         tip_u = inc.tip_u(self.model.active)
         if inc.length <= tip_u:
             return
-        x = self._positions_view(sim)
         tip, end = inc.point_at([tip_u, inc.length])
         near = self._nodes_near(sim, tip, end, inc.sweep_radius + 2.0 * self.spacing)
         tris = np.array(sorted({t for v in near for t in self.editor.node_triangles[v]}), dtype=np.int64)
@@ -448,8 +448,9 @@ class Cutter:
         t0 = time.perf_counter()
         a, normal_then = inc.path[-1], inc.normals[-1] if normal is None else normal
         near = self._nodes_near(sim, a, point, inc.sweep_radius + self.edge_reach)
-        self.swept_volume.cut(sim, inc, a, point, normal_then, near, self._positions_view(sim))
-        self._reopen_tip(sim, inc)  # new stations may fall there
+        x = self._positions_view(sim)
+        self.swept_volume.cut(sim, inc, a, point, normal_then, near, x)
+        self._reopen_tip(sim, inc, x)  # new stations may fall there
         t1 = time.perf_counter()
         inc.extend(point, min_step=0.0, normal=normal)
         inc.plan_stations(clearance=self._clearance(sim.tool_pose, inc))

@@ -18,7 +18,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from ..mesh.geometry import cross3, triangle_min_angles
+from ..mesh.geometry import cross3, plane_frame, triangle_min_angles
 from .classes import NodeClass, SpringClass
 from .incision import closest_on_polyline
 from .lip_slots import PLACEHOLDER, LipSlots, lips_for_chain
@@ -431,9 +431,8 @@ def _views(incision, positions, nodes):
 
 def _plane_view(nodes, x, n) -> _HoleCoordinates:
     """Nodes at ``x`` (k, 3) [m] seen along the unit normal ``n``."""
-    e1 = cross3(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    return _HoleCoordinates(nodes, x @ np.stack([e1, cross3(n, e1), n]).T)
+    e1, e2 = plane_frame(n)
+    return _HoleCoordinates(nodes, x @ np.stack([e1, e2, n]).T)
 
 
 def _chart_view(incision, nodes, x) -> _HoleCoordinates:

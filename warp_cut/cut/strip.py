@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..mesh.geometry import cross3
+from ..mesh.geometry import plane_frame
 
 __all__ = ["turns_with", "zip_strip", "hole_polygon", "ear_clip"]
 
@@ -81,10 +81,7 @@ def ear_clip(polygon, positions, normal, forbidden=None) -> list[tuple[int, int,
     """Triangulate a simple polygon (node cycle, counter-clockwise about ``normal``) by cutting
     ears, best (largest smallest angle) first, never one whose nodes are ``forbidden`` (a
     predicate on node triples); [] if the polygon is not simple or no ear is left."""
-    n = np.asarray(normal, dtype=np.float64)
-    e1 = cross3(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = cross3(n, e1)
+    e1, e2 = plane_frame(normal)
     pts = positions[polygon]
     # ring entries are positions in the cycle: a node may appear twice (a closed border and a
     # closed slit joined by a bridge edge walked both ways)

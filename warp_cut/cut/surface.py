@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..mesh.geometry import cross3
+from ..mesh.geometry import cross3, plane_frame
 
 __all__ = ["Crossing", "axis_triangle_hits", "fit_height_field", "locate_crossing"]
 
@@ -85,14 +85,6 @@ def axis_triangle_hits(p0, p1, corners: np.ndarray) -> tuple[np.ndarray, np.ndar
     t = np.einsum("ij,ij->i", e2, q) * inv
     hit = ok & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t >= 0.0) & (t <= 1.0)
     return hit, t
-
-
-def _frame(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors completing ``normal`` to a right-handed frame."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = cross3(normal, helper)
-    e1 /= np.linalg.norm(e1)
-    return e1, cross3(normal, e1)
 
 
 @dataclass(frozen=True)
@@ -176,7 +168,7 @@ def _plane_frame(points: np.ndarray, w: np.ndarray, outward: np.ndarray):
     rel = points - centre
     _, vectors = np.linalg.eigh((rel * w[:, None]).T @ rel)
     normal = vectors[:, 0] if vectors[:, 0] @ outward >= 0.0 else -vectors[:, 0]
-    e1, e2 = _frame(normal)
+    e1, e2 = plane_frame(normal)
     return centre, e1, e2, normal
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cross3", "triangle_angles", "triangle_min_angles", "triangle_areas", "triangle_normals",
+__all__ = ["cross3", "plane_frame", "triangle_angles", "triangle_min_angles", "triangle_areas", "triangle_normals",
            "half_edges", "edges_of", "edge_keys", "boundary_nodes", "compact_surface", "SLIVER_DEG"]
 
 SLIVER_DEG = 10.0
@@ -102,6 +102,16 @@ def cross3(a, b) -> np.ndarray:
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def plane_frame(normal) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors (3,), (3,) completing the unit ``normal`` (3,) to a right-handed frame
+    (e1, e2, normal): e1 = normal x (world X, or world Y when the normal is near X)."""
+    normal = np.asarray(normal, dtype=np.float64)
+    helper = [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0]
+    e1 = cross3(normal, helper)
+    e1 /= np.linalg.norm(e1)
+    return e1, cross3(normal, e1)
 
 
 def _cross_of_corners(c: np.ndarray) -> np.ndarray:
