@@ -60,7 +60,7 @@ class _Stiffness:
         self.a = np.maximum(0.0, 1.0 - rest / length)
         self.k = k
         self.springs = springs
-        self.free = free[:, None].astype(np.float64)
+        self.free = free.astype(np.float64)
         n = len(x)
         diag = np.zeros((n, 3))
         block_diag = k[:, None] * (self.a[:, None] + (1.0 - self.a[:, None]) * self.u ** 2)
@@ -102,7 +102,7 @@ def _cg(op: _Stiffness, b, tol, max_iterations) -> tuple[np.ndarray, int]:
 
 def static_equilibrium(model, positions=None, *, external=None, force_tolerance: float = 1e-9,
                        max_newton: int = 20, cg_tolerance: float = 1e-8,
-                       cg_iterations: int = 20000) -> StaticResult:
+                       cg_iterations: int = 20000, planar: bool = False) -> StaticResult:
     """The static equilibrium of ``model``'s springs (and optional external forces).
 
     Args:
@@ -114,10 +114,13 @@ def static_equilibrium(model, positions=None, *, external=None, force_tolerance:
         max_newton: Newton steps at most.
         cg_tolerance: Relative tolerance of each linear solve (preconditioned residual norm).
         cg_iterations: CG iterations at most per Newton step.
+        planar: Hold every node's z (a flat sheet in a plane z = const: its plane-stress
+            equilibrium). Without it a spring in compression can make the membrane, which has
+            no bending stiffness, buckle out of its plane: another equilibrium.
     """
     x = np.array(model.points if positions is None else positions, dtype=np.float64)
     springs, rest, k = model.springs, model.rest_lengths, model.stiffness
-    free = model.active & ~model.pinned
+    free = (model.active & ~model.pinned)[:, None] & np.array([True, True, not planar])
     ext = np.zeros_like(x) if external is None else np.asarray(external, dtype=np.float64)
     d = np.linalg.norm(x[springs[:, 1]] - x[springs[:, 0]], axis=1)
     scale = float(np.max(k * np.abs(d - rest))) if len(springs) else 0.0
@@ -125,7 +128,7 @@ def static_equilibrium(model, positions=None, *, external=None, force_tolerance:
     total_cg, steps = 0, 0
     residual = np.inf
     for steps in range(max_newton + 1):
-        f = (spring_network_forces(x, springs, rest, k) + ext) * free[:, None]
+        f = (spring_network_forces(x, springs, rest, k) + ext) * free
         residual = float(np.abs(f).max()) if len(f) else 0.0
         if residual <= force_tolerance * scale or steps == max_newton:
             break
