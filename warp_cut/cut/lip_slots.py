@@ -17,6 +17,7 @@ import numpy as np
 
 from ..sim.strokes import inside_cylinder
 from .classes import NodeClass
+from .lip_placement import lip_placement
 
 __all__ = ["LipSlots", "lips_for_chain", "lips_inside", "LIP_TOOL_SLACK", "PLACEHOLDER"]
 
@@ -96,6 +97,9 @@ class LipSlots:
         self.theta = {node: theta for node, theta, *_ in self.slots if node >= 0}
         self.created: list[int] = []
         self._proposed: dict[int, tuple] = {}
+        self._rest: dict[int, np.ndarray] = {}
+        """placeholder -> rest position [m] (3,) of the lip node it stands for
+        (``lip_placement``)."""
         self._version = 0
         """Counts changes of the proposed and accepted lips."""
         self._open_to: tuple | None = None
@@ -198,11 +202,12 @@ class LipSlots:
                 key = (station, side)
                 if key not in here:
                     u = inc.station_u[station] if station >= 0 else (0.0 if station == -1 else inc.length)
-                    point = inc.lip_position(u, side)
+                    point, rest = lip_placement(self.editor.model, self.positions.base, inc, u, side)
                     here[key] = self._snap(spare, point, side, snap) if station >= 0 else -1
                     if here[key] < 0:
                         here[key] = PLACEHOLDER + len(self._proposed)
                         self.positions[here[key]] = point
+                        self._rest[here[key]] = rest
                     self._proposed[here[key]] = key
                 node = here[key]
             lips.append(node)
@@ -310,6 +315,7 @@ class LipSlots:
             if ph >= PLACEHOLDER:
                 self.positions.extra.pop(ph, None)
         self._proposed.clear()
+        self._rest.clear()
 
     def accept(self) -> dict[int, int]:
         """Make the proposed lip nodes (a snapped tissue node becomes the lip as it is);
@@ -321,7 +327,7 @@ class LipSlots:
                 node = ph
             else:
                 point = self.positions.extra.pop(ph)
-                node = int(self.editor.add_nodes(point[None], NodeClass.LIP)[0])
+                node = int(self.editor.add_nodes(self._rest[ph][None], NodeClass.LIP)[0])
                 self.positions[node] = point
                 self.created.append(node)
             self.incision.set_lip_node(station, side, node)
@@ -330,4 +336,5 @@ class LipSlots:
             self.theta[node] = next(th for n, th, sd, st in self.slots if n == node)
             mapping[ph] = node
         self._proposed.clear()
+        self._rest.clear()
         return mapping

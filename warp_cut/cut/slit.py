@@ -144,6 +144,7 @@ def _restore_springs(model, editor, new_springs, original, old, line) -> None:
             up = sum(_area(x, corners[tr]) for tr in editor.triangles_with_edge(a, b))
             low = sum(_area(x, corners[tr]) for tr in editor.triangles_with_edge(*key))
             table.set("stiffness", [kept], k * low / (up + low))
+            table.set("rest_length", [kept], rest)  # as before the edit (its prestress, if any)
             k = k * up / (up + low)
         table.set("rest_length", [slot], rest)
         table.set("stiffness", [slot], k)

@@ -18,10 +18,15 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh.geometry import triangle_areas
+from ..sim.prestress import membrane_edge_tensions
 from ..sim.stiffness import van_gelder_stiffness
 from .classes import NodeClass, SpringClass
 
-__all__ = ["TopologyEditor", "EditReport", "NodePositions"]
+__all__ = ["TopologyEditor", "EditReport", "NodePositions", "MAX_PRESTRAIN"]
+
+MAX_PRESTRAIN = 0.5
+"""Largest |f / (k L)| a spring a cut makes or changes in a prestressed sheet is given
+(``TopologyEditor._prestress``)."""
 
 
 class NodePositions:
@@ -229,7 +234,9 @@ class TopologyEditor:
             self._touched.difference_update(nodes)
 
     def add_nodes(self, points, node_class: int = NodeClass.LIP) -> np.ndarray:
-        """New nodes at ``points`` (k, 3) [m] (also their rest positions); masses set at finish."""
+        """New nodes with rest positions ``points`` (k, 3) [m]; masses set at finish. Their
+        current positions are the caller's (``cut.lip_placement``: they differ in a prestressed
+        sheet)."""
         model = self.model
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         k = len(pts)
@@ -316,8 +323,13 @@ class TopologyEditor:
         if fragments:
             self.delete_nodes(fragments)
             self.report.removed_fragments.extend(fragments)
+        changed = self._changed_springs() if model.stiffness_model == "material" or model.prestress_tension else []
+        if model.prestress_tension:
+            model.spring_table.set("rest_length", changed, self._rest_shape_lengths(changed))
         if model.stiffness_model == "material":
-            self._refresh_material_stiffness()
+            self._refresh_material_stiffness(changed)
+        if model.prestress_tension:
+            self._prestress(changed)
         if model.material.bending_rigidity > 0:
             self._refresh_hinges(model.points if positions is None else positions)
         touched = np.array(sorted(v for v in self._touched if model.active[v]), dtype=np.int64)
@@ -392,21 +404,52 @@ class TopologyEditor:
         self.model.hinge_table.kill([slot])
         self.report.deleted_hinges.append(slot)
 
-    def _refresh_material_stiffness(self) -> None:
-        """Give the springs whose triangles changed in this edit (new ones included) their
-        van Gelder stiffness from the triangles they now border (``warp_cut.sim.stiffness``)."""
+    def _changed_springs(self) -> list[int]:
+        """Slots of the live springs on the edges of the triangles this edit deleted or made."""
         model = self.model
-        table = model.triangle_table
-        edges = self._changed_edges()
-        areas, rest = table.column("area"), model.spring_table.column("rest_length")
-        slots, area_sums = [], []
-        for i, j in edges:
-            slot = self.spring_between(i, j) if model.active[i] and model.active[j] else None
-            if slot is not None and rest[slot] > 0:
-                slots.append(slot)
-                area_sums.append(sum(areas[t] for t in self.triangles_with_edge(i, j)))
+        slots = (self.spring_between(i, j) for i, j in self._changed_edges() if model.active[i] and model.active[j])
+        return sorted(slot for slot in slots if slot is not None)
+
+    def _refresh_material_stiffness(self, slots: list[int]) -> None:
+        """Give the springs ``slots`` (those whose triangles changed in this edit, new ones
+        included) their van Gelder stiffness from the triangles they now border
+        (``warp_cut.sim.stiffness``)."""
+        model = self.model
+        areas, rest = model.triangle_table.column("area"), model.spring_table.column("rest_length")
+        pairs = model.spring_table.column("pairs")
+        slots = [slot for slot in slots if rest[slot] > 0]
         if slots:
+            area_sums = [sum(areas[t] for t in self.triangles_with_edge(*(int(v) for v in pairs[slot])))
+                         for slot in slots]
             material = model.material
             k = van_gelder_stiffness(material.youngs_modulus, material.thickness, np.array(area_sums),
                                      rest[slots] ** 2)
             model.spring_table.set("stiffness", slots, k)
+
+    def _rest_shape_lengths(self, slots: list[int]) -> np.ndarray:
+        """Lengths [m] (k,) of springs ``slots`` between their nodes' rest positions."""
+        pairs = self.model.spring_table.column("pairs")[slots]
+        points = self.model.points
+        return np.linalg.norm(points[pairs[:, 1]] - points[pairs[:, 0]], axis=1)
+
+    def _prestress(self, slots: list[int]) -> None:
+        """Rest lengths of the springs ``slots`` (those whose triangles changed in this edit)
+        that carry the model's membrane tension in the rest shape, as ``apply_prestress`` gives
+        the original springs: L0 = L - f / k, with L the length between the nodes' rest
+        positions and f the cotangent tension of the triangles each borders now
+        (``warp_cut.sim.prestress``). So a new spring carries the tension its neighbours carry,
+        and an edge the cut left on one triangle carries its side's share only (the traction
+        across the cut is released). f / (k L) is kept within +-``MAX_PRESTRAIN``: a triangle
+        nearly flat in the rest shape would otherwise give a rest length near 0, or a long one."""
+        if not slots:
+            return
+        model = self.model
+        pairs = model.spring_table.column("pairs")[slots]
+        triangles = sorted({t for i, j in pairs for t in self.triangles_with_edge(int(i), int(j))})
+        corners = model.triangle_table.column("corners")[triangles].reshape(-1, 3)
+        f = membrane_edge_tensions(model.points, corners, pairs, model.prestress_tension)
+        length = self._rest_shape_lengths(slots)
+        k = model.spring_table.column("stiffness")[slots]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(k * length > 0.0, f / (k * length), 0.0)
+        model.spring_table.set("rest_length", slots, length * (1.0 - np.clip(ratio, -MAX_PRESTRAIN, MAX_PRESTRAIN)))

@@ -108,6 +108,10 @@ class TissueModel:
         self.stiffness_model = "constant"
         """How springs made later (by a cut) get their stiffness: ``"constant"`` (the material's
         K) or ``"material"`` (van Gelder, from E, thickness and their triangles)."""
+        self.prestress_tension = 0.0
+        """The membrane tension T [N/m] the rest lengths carry (``apply_prestress``; 0: none).
+        Springs a cut makes or changes get their rest lengths the same way
+        (``TopologyEditor.finish``)."""
         self.topology_version = 0
 
     # ----------------------------------------------------------------- node views
@@ -386,6 +390,7 @@ class TissueModel:
             self.points, self.triangles, self.springs, self.stiffness, T,
             what=f"the membrane tension (youngs_modulus {mat.youngs_modulus:g} Pa x "
                  f"residual_strain {mat.residual_strain:g} x thickness {mat.thickness:g} m)")
+        self.prestress_tension = T
 
     def add_hinges(self, hinges, positions) -> np.ndarray:
         """Hinges (h, 4) [a, b, k, l] made at ``positions`` (node positions [m], anything an index
