@@ -99,3 +99,5 @@ def test_cli_refuses_a_bad_scene_before_running(tmp_path):
     assert main(["experiment", "wound", "--scene", str(tmp_path / "missing.toml"), "--out", str(out),
                  "--quiet"]) == 2
     assert not out.exists()
+    assert main(["experiment", "wound", "--set", "cutting.interval=-1", "--out", str(out), "--quiet"]) == 2
+    assert not out.exists()  # a bad override too

@@ -105,8 +105,8 @@ def _cmd_experiment_collision(args) -> int:
 def _cmd_experiment_wound(args) -> int:
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise InputError(f"--out {args.out}: exists and is not a directory")
-    load_scene(args.scene)  # a bad scene is refused before the long part
-    comparisons = fracture.run_experiment(args.scene, quick=args.quick)
+    scene = load_scene(args.scene, args.set)  # a bad scene is refused before the long part
+    comparisons = fracture.run_experiment(scene, quick=args.quick)
     written = fracture.write_report(args.out, comparisons)
     if not args.quiet:
         for c in comparisons:
@@ -256,6 +256,8 @@ def _add_experiment(sub) -> None:
                      help="output directory (default: out/wound)")
     wnd.add_argument("--scene", default="wound_gape",
                      help="the scene whose straight cut is compared (default: wound_gape)")
+    wnd.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                     help="override a key of that scene (TOML value syntax); repeatable")
     wnd.add_argument("--quick", action="store_true",
                      help="only the exact-slit checks (no run of the scene)")
     wnd.add_argument("--quiet", action="store_true", help="no summary")
