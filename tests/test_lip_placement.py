@@ -11,6 +11,7 @@ import pytest
 from warp_cut import Material, TissueModel
 from warp_cut.cut.incision import Incision
 from warp_cut.cut.lip_placement import lip_placement
+from warp_cut.cut.topology import NodePositions, TopologyEditor
 
 SPACING = 0.002
 Y0 = 0.5 * SPACING * np.sqrt(3) / 2  # between two node rows
@@ -69,3 +70,21 @@ def test_a_side_with_no_tissue_near_leaves_the_lip_on_the_curve():
     current, rest = lip_placement(model, x, inc, u, -1)
     np.testing.assert_array_equal(current, inc.lip_position(u, -1))
     np.testing.assert_array_equal(rest, current)
+
+
+def test_nodes_an_edit_has_just_made_count_with_their_side():
+    """During an edit a lip already made has its position among the edit's own (a
+    ``NodePositions`` whose base array is shorter than the model): it counts with its side."""
+    model = TissueModel.from_patch((0.03, 0.02), SPACING, material=Material(residual_stress_model="prestress"))
+    inc = straight_incision()
+    gape = 0.4e-3
+    x = moved_apart(model, gape, [0.0, 0.0, 0.0])
+    u = 0.5 * inc.length
+    alone, _ = lip_placement(model, x, inc, u, 1)  # before the edit made a node
+    editor = TopologyEditor(model)
+    editor.begin()
+    made = int(editor.add_nodes(inc.lip_position(u, 1)[None])[0])
+    positions = NodePositions(x)
+    positions[made] = inc.lip_position(u, 1) + [0.0, 3 * gape, 0.0]  # moved further than its side
+    current, _ = lip_placement(model, positions, inc, u, 1)
+    assert current[1] > alone[1] > inc.lip_position(u, 1)[1]

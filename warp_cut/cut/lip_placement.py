@@ -40,7 +40,8 @@ def lip_placement(model, positions: np.ndarray, incision: Incision, u: float, si
                   ) -> tuple[np.ndarray, np.ndarray]:
     """(current, rest) position [m] (3,) of a new lip node of the station at ``u`` [m] on
     ``side`` (+1 left, -1 right, 0 the slit's start or end). ``positions``: the current node
-    positions [m] (at least ``model.node_count`` rows). Both are ``incision.lip_position`` but
+    positions [m], anything a node index array turns into (k, 3) (a ``NodePositions`` during
+    an edit: the nodes it has made so far count too). Both are ``incision.lip_position`` but
     in a prestressed sheet (module docstring)."""
     point = incision.lip_position(u, side)
     if model.prestress_tension <= 0.0:
@@ -61,9 +62,8 @@ def _side_displacements(model, positions: np.ndarray, incision: Incision, u: flo
     of ``u``), or None if a side has no such node."""
     h = incision.spacing
     centre = incision.point_at(u)[0]
-    n = model.node_count
-    live = np.flatnonzero(model.active[:n])
-    x = np.asarray(positions[:n][live], dtype=np.float64)
+    live = np.flatnonzero(model.active)
+    x = np.asarray(positions[live], dtype=np.float64).reshape(-1, 3)
     dist = np.linalg.norm(x - centre, axis=1)
     near = dist < REACH * h
     if not near.any():
