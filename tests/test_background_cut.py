@@ -1,4 +1,4 @@
-"""warp_cut/cut/background.py: the cut in a worker process, its edits applied between ticks.
+"""warp_cut/cut/background.py, warp_cut/cut/cut_worker.py: the cut in a worker process, its edits applied between ticks.
 
 The worker's replica and the loop's model must stay the same tissue edit by edit; the cut it
 makes must be the one the in-loop Cutter makes on the same stroke (up to the few steps an edit
@@ -17,7 +17,8 @@ from hypothesis import strategies as st
 from test_cut_fuzz import cut_cases, make_stroke, make_surface
 
 from warp_cut import Simulator, TissueModel, Tool
-from warp_cut.cut.background import ANCHORS, BackgroundCutter, ModelEdit, _Event, motion_anchors
+from warp_cut.cut.background import BackgroundCutter
+from warp_cut.cut.cut_worker import ANCHORS, ModelEdit, WorkerEvent, motion_anchors
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.errors import CutWorkerError, InputError
 from warp_cut.verify.validity import cut_problems
@@ -166,7 +167,7 @@ def test_a_failed_event_stops_the_cut_for_good():
     model = TissueModel.from_patch((0.02, 0.02), 0.002)
     with Simulator(model, dt=1e-3, device=DEVICE, cutting=True, cut_in_background=True) as sim:
         cutter = sim.cutter
-        cutter._post(("event", _Event(0.0, 1e-3, True, buffer="no-such-buffer", capacity=1, node_count=1)))
+        cutter._post(("event", WorkerEvent(0.0, 1e-3, True, buffer="no-such-buffer", capacity=1, node_count=1)))
         cutter._busy = True
         with pytest.raises(CutWorkerError, match="no-such-buffer"):
             cutter.flush(sim)
