@@ -20,7 +20,7 @@ from warp_cut.cut.classes import NodeClass
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.cut.topology import MAX_PRESTRAIN
 from warp_cut.mesh.patch import skin_patch_mesh
-from warp_cut.mesh.surfaces import jittered_delaunay
+from warp_cut.mesh.surfaces import flat_grid, jittered_delaunay
 from warp_cut.scene import load_scene, parse_scene
 from warp_cut.sim import strokes
 from warp_cut.sim.model import boundary_nodes
@@ -241,6 +241,25 @@ def test_a_moving_tool_cut_leaves_one_tension_and_lips_that_follow_the_gape():
     pairs = inc.pairs()
     gap = np.linalg.norm(sim.positions[pairs[:, 0]] - sim.positions[pairs[:, 1]], axis=1)
     assert len(pairs) >= 5 and np.median(gap) > 2.0 * inc.lip_offset + 0.1e-3  # opened
+
+
+def test_a_fill_is_judged_in_the_rest_shape_too():
+    """A thick tool (r 2.0 mm on a 1.7 mm grid, tilted 64 degrees, gravity and the foundation
+    on) across a prestressed patch: the fill at the slit's start made a triangle that looked
+    fair where the nodes were but was 1.9 degrees in the rest shape the springs take their
+    lengths from, and 0.04 degrees once the sheet had settled. A prestressed sheet's fill
+    counts the smaller of its two smallest angles: none below 10 degrees now."""
+    surface = flat_grid(0.0413111842029696, 0.00171044765737931)
+    material = Material(foundation_stiffness=1e6, residual_stress_model="prestress")
+    sim = Simulator(TissueModel.from_surface(surface, material=material), dt=1e-3, device=DEVICE,
+                    cutting=CutSettings(interval=0.03310187971208809))
+    path = strokes.line([-0.0111884457216376, 0.0014753994358203404], 5.602684401619392, 0.016273897858153114)
+    stroke = strokes.Stroke(surface, path, tilt=math.radians(63.78196440257604), radius=0.0020073533581260626,
+                            depth=0.002160665425005849, speed=0.008160930801347761,
+                            tool_length=0.048489289974786604, margin=3e-3)
+    result = run_stroke(sim, stroke, surface)
+    assert result.exception is None and result.incisions == 1 and result.unfilled_holes == 0
+    assert result.slivers == 0 and result.min_new_angle_deg >= 10.0
 
 
 def test_new_springs_in_the_links_model_take_their_length_of_the_moment():

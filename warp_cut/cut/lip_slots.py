@@ -18,6 +18,7 @@ import numpy as np
 from ..sim.strokes import inside_cylinder
 from .classes import NodeClass
 from .lip_placement import lip_placement
+from .topology import NodePositions
 
 __all__ = ["LipSlots", "lips_for_chain", "lips_inside", "LIP_TOOL_SLACK", "PLACEHOLDER"]
 
@@ -303,6 +304,12 @@ class LipSlots:
         """True if ``lips`` ((side, u) each) are the two lips of the open slit's newest pair."""
         return (self.incision.open_end and len(lips) == 2 and lips[0][1] == lips[1][1]
                 and lips[0][1] == self._slit_end_u())
+
+    def rest_positions(self) -> NodePositions:
+        """Rest positions [m] of the nodes and of the proposed lip nodes (``lip_placement``)."""
+        rest = NodePositions(self.editor.model.points)
+        rest.extra.update(self._rest)
+        return rest
 
     def proposed_inside(self, tool) -> bool:
         """True if a proposed new lip node lies inside the tool's cylinder (``lips_inside``)."""

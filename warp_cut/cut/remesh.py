@@ -149,14 +149,15 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
         return all(v in lip_set for v in tri)
 
     candidates = []  # (smallest angle [deg], triangles)
+    rest = slots.rest_positions() if editor.model.prestress_tension else None
     if lips:
         strip = zip_strip(chain, lips, chart, _UP, lips_only)
         if _acceptable(strip, editor, chart, _UP, slots, lips_only):
-            candidates.append((_min_angle(strip, positions), strip))
+            candidates.append((_min_angle(strip, positions, rest), strip))
     if not candidates or candidates[0][0] < min_angle_deg:
         ears = ear_clip(hole_polygon(chain, lips), chart, _UP, lips_only)
         if _acceptable(ears, editor, chart, _UP, slots, lips_only):
-            candidates.append((_min_angle(ears, positions), ears))
+            candidates.append((_min_angle(ears, positions, rest), ears))
     facing = [c for c in candidates if _faces_out(c[1], positions, slots.incision, tool)]
     # a triangle turned over on the skin (nodes the tool displaced) waits while the tool cuts;
     # once it has gone, it is accepted rather than leave a hole
@@ -461,12 +462,16 @@ _TOOL_REACH = 2.0
 """Spacings beyond the tool's radius within which the tool is taken to displace nodes."""
 
 
-def _min_angle(tris, positions) -> float:
-    """Smallest angle [deg] of triangles (node triples)."""
+def _min_angle(tris, positions, rest=None) -> float:
+    """Smallest angle [deg] of triangles (node triples) at ``positions``, and at the rest
+    positions ``rest`` too if given (a prestressed sheet's springs take their lengths from its
+    rest shape: a triangle thin there would be a sliver once the sheet settles)."""
     if not tris:
         return 0.0
-    corners = positions[[v for t in tris for v in t]]
-    return float(triangle_min_angles(corners, np.arange(len(corners)).reshape(-1, 3)).min())
+    nodes = [v for t in tris for v in t]
+    local = np.arange(len(nodes)).reshape(-1, 3)
+    angle = float(triangle_min_angles(positions[nodes], local).min())
+    return angle if rest is None else min(angle, float(triangle_min_angles(rest[nodes], local).min()))
 
 
 def _acceptable(strip, editor, positions, normal, slots: LipSlots, forbidden=None, may_join: bool = False) -> bool:
