@@ -376,7 +376,8 @@ class TopologyEditor:
     def _refresh_hinges(self, positions) -> None:
         """Hinges of the edges whose triangles changed: kept where the edge still joins the same
         two triangles' corners, else deleted and made again at ``positions`` (where two
-        triangles share the edge), as new springs take their current length."""
+        triangles share the edge), as new springs take their current length (outside a
+        prestressed sheet, ``_prestress``)."""
         model = self.model
         table = model.hinge_table
         fresh = []

@@ -21,8 +21,8 @@ bending resistance of the right order that stops a membrane from folding at no c
 mesh-independent plate model.
 
 theta_0 and k_h come from the shape the hinge is made at: the rest shape for the mesh's own
-hinges, the current shape for hinges a cut makes (as its springs take their current length,
-``warp_cut.cut.topology``).
+hinges, the current shape for hinges a cut makes (as its springs take their current length
+outside a prestressed sheet, ``warp_cut.cut.topology``).
 
 Arrays: hinges (h, 4) int64 [a, b, k, l]; points / positions (n, 3) [m].
 """
