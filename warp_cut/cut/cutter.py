@@ -38,7 +38,6 @@ import warp as wp
 from ..errors import InputError
 from ..kernels import cutting as cut_kernels
 from ..kernels import scatter
-from ..kernels.cutting import segment_node_hits
 from ..mesh.checks import cuttable_problems
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
@@ -46,12 +45,13 @@ from ..sim.model import TissueModel
 from ..sim.stability import ElementRates, StepLimit
 from ..sim.state import State
 from .classes import NodeClass
+from .contact import BladeContact
 from .flips import flip_slivers
-from .incision import Incision, closest_on_polyline
+from .incision import Incision
 from .lip_slots import lips_inside
 from .measures import coverage, incision_width, lip_deviation
 from .remesh import fill_hole
-from .surface import Crossing, locate_crossing
+from .surface import Crossing
 from .swept_volume import HitLists, SweptVolume
 from .topology import NodePositions, TopologyEditor
 from .wound_links import carry_links, open_links
@@ -151,9 +151,6 @@ class Cutter:
         self.spacing = self.settings.spacing or float(np.median(lengths))
         self.edge_reach = 1.5 * float(lengths.max()) if len(lengths) else self.spacing
         """How far from the swept capsule a spring may start and still cross it [m]."""
-        self.exit_margin = 0.5 * self.spacing
-        """How far above the skin the tip must be before the incision ends [m]: a skin that
-        moves about a hovering tip does not split one stroke into several incisions."""
         self.incisions: list[Incision] = []
         self.current: Incision | None = None
         self._last_event = -np.inf
@@ -163,6 +160,7 @@ class Cutter:
         """The tool's tip at the last cut event [m] (None: no tool then)."""
         self._hits = HitLists(device)
         self.swept_volume = SweptVolume(model, self.editor, self._hits, self.spacing, device)
+        self.contact = BladeContact(model, self.editor, self._hits, self.spacing)
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
                        "carried_links": 0, "lost_links": 0, "lip_nodes": 0, "lip_nodes_removed": 0,
@@ -196,58 +194,20 @@ class Cutter:
         poses, self._poses = self._poses, []
         tip_before, self._tip_before = self._tip_before, tool.p0
         if self.current is None:
-            if not self._drawn_out(poses, tip_before):
+            if not self.contact.drawn_out(self.incisions, poses, tip_before):
                 self._start_where_the_blade_entered(sim, poses)
             return
-        crossing, skin = self._contact(sim, tool)
-        if crossing is None and (self._in_own_opening(tool) or self._through_an_opening(tool, skin)):
+        contact = self.contact
+        crossing, skin = contact.contact(sim, tool, self._positions_view(sim))
+        if crossing is None and (contact.in_own_opening(self.current, tool)
+                                 or contact.through_an_opening(self.current, tool, skin)):
             return  # no skin around the axis, but the blade is still down in the tissue: wait
-        if crossing is None or crossing.tip_height > self.exit_margin:
+        if crossing is None or crossing.tip_height > contact.exit_margin:
             self.end_incision(sim)  # the tool has left the skin: this incision is complete
         elif crossing.inside and not self.current.retraces(crossing.point, self.current.sweep_radius):
             self.extend_incision(sim, crossing.point, crossing.normal)
         # else: the tip is just above the skin (the skin moves, the tool hovers) or back over
         # the cut: wait
-
-    def _in_own_opening(self, tool: Tool) -> bool:
-        """True if the tool is still in the opening the current incision made: its axis at the
-        incision's end (``_at_the_end_of``), its tip no higher above the skin there than
-        ``exit_margin``. A thick tool crossing an earlier wound leaves no skin on one side of
-        its axis until this event's lips are made, so no crossing is found there; the tool has
-        not left the skin for that."""
-        end, normal = self.current.path[-1], self.current.normals[-1]
-        return self._at_the_end_of(self.current, tool) and float((tool.p0 - end) @ normal) <= self.exit_margin
-
-    def _drawn_out(self, poses: list[Tool], tip_before: np.ndarray | None) -> bool:
-        """True while the tool is drawn out of the wound the last incision cut: its axis at
-        that incision's end (``_at_the_end_of``) and its tip moving out along the skin's
-        normal there since the last event (from ``tip_before``, else the first of ``poses``).
-        A tool drawn out lifts the skin around it; that skin closing over its tip again is
-        not a new cut."""
-        if not self.incisions:
-            return False
-        inc = self.incisions[-1]
-        before = poses[0].p0 if tip_before is None else tip_before
-        return float((poses[-1].p0 - before) @ inc.normals[-1]) > 0.0 and self._at_the_end_of(inc, poses[-1])
-
-    def _at_the_end_of(self, inc: Incision, tool: Tool) -> bool:
-        """True if the tool's axis passes within 2 sweep radii + a spacing of the last point
-        ``inc`` cut."""
-        _, _, _, from_axis = closest_on_polyline(inc.path[-1][None], np.stack([tool.p0, tool.p1]))
-        return bool(from_axis[0] <= 2.0 * inc.sweep_radius + self.spacing)
-
-    def _through_an_opening(self, tool: Tool, skin: np.ndarray) -> bool:
-        """True if the tool passes through an opening in the skin (an earlier wound) with its
-        tip down in the tissue: skin around its axis (``skin``: positions [m] (k, 3) of the live
-        nodes ``_skin_near`` found, within 1.5 radii + 3 spacings), and the tip not above it by
-        more than ``exit_margin`` along the skin's normal where the incision last cut (median
-        over those nodes). A thin tool crossing a wide earlier wound has no skin at its axis
-        there, but has not left the skin: the incision goes on where the blade meets skin
-        again. A blade the skin fell away from, or lifted out, has."""
-        if len(skin) < 3:
-            return False
-        heights = (tool.p0 - skin.astype(np.float64)) @ self.current.normals[-1]
-        return bool(np.median(heights) <= self.exit_margin)
 
     def catch_up(self, poses: list[Tool]) -> None:
         """Take the tool poses of steps whose ``after_step`` this cutter did not see (a cutter
@@ -256,14 +216,7 @@ class Cutter:
 
     def crossing(self, sim: CutHost, tool: Tool) -> Crossing | None:
         """Where the tool's axis crosses the skin now (None: the tool is out of the skin)."""
-        return self._contact(sim, tool)[0]
-
-    def _contact(self, sim: CutHost, tool: Tool) -> tuple[Crossing | None, np.ndarray]:
-        """(``crossing``, positions [m] (k, 3) of the skin near the tool it was looked for in)."""
-        x = self._positions_view(sim)
-        nodes, corners = self._skin_near(sim, tool, x)
-        skin = x[nodes]
-        return self._locate(tool, skin, self.model.points[nodes], corners), skin
+        return self.contact.contact(sim, tool, self._positions_view(sim))[0]
 
     def _start_where_the_blade_entered(self, sim: CutHost, poses: list[Tool]) -> None:
         """Start an incision if the axis crosses the skin (and the tool pushes hard enough),
@@ -272,62 +225,16 @@ class Cutter:
         if np.linalg.norm(sim.tool_force) < self.settings.force_threshold:
             return
         x = self._positions_view(sim)
-        nodes, corners = self._skin_near(sim, tool, x)
+        nodes, corners = self.contact.skin_near(sim, tool, x)
         rest = self.model.points[nodes]
-        now = self._locate(tool, x[nodes], rest, corners)
-        if not self._can_start(sim, tool, now):
+        now = self.contact.locate(tool, x[nodes], rest, corners)
+        if not self.contact.can_start(sim, tool, now):
             return
         entry = now
         if self.settings.force_threshold == 0.0:
-            entry = self._first_crossing(sim, poses, x[nodes], rest, corners) or now
+            entry = self.contact.first_crossing(sim, poses, x[nodes], rest, corners) or now
         self.start_incision(sim, entry.point, entry.normal, self.settings.sweep_radius or tool.radius)
         self.extend_incision(sim, now.point, now.normal)
-
-    def _can_start(self, sim: CutHost, tool: Tool, crossing: Crossing | None) -> bool:
-        """True if an incision may start at ``crossing``: the blade is in the skin, its axis
-        through a live triangle or tissue touching it (a blade pressed against the edge of an
-        opening - an earlier wound - cuts into it)."""
-        if crossing is None or not crossing.inside:
-            return False
-        if crossing.pierced:
-            return True
-        return len(self._nodes_near(sim, tool.p0, tool.p1, tool.radius + 0.5 * self.spacing)) > 0
-
-    def _first_crossing(self, sim: CutHost, poses: list[Tool], x: np.ndarray, rest: np.ndarray,
-                        corners: np.ndarray) -> Crossing | None:
-        """The crossing of the earliest pose whose axis crosses the skin where an incision may
-        start (binary search: the tool goes in once between two events)."""
-        lo, hi, found = 0, len(poses) - 1, None
-        while lo <= hi:
-            mid = (lo + hi) // 2
-            hit = self._locate(poses[mid], x, rest, corners)
-            if not self._can_start(sim, poses[mid], hit):
-                lo = mid + 1
-            else:
-                found, hi = hit, mid - 1
-        return found
-
-    def _locate(self, tool: Tool, x: np.ndarray, rest: np.ndarray, corners: np.ndarray) -> Crossing | None:
-        """The crossing of ``tool``'s axis with the skin whose nodes near it are at ``x`` (rest
-        positions ``rest``), both (k, 3) [m]; the nodes within 1.5 tool radii of the axis are
-        left out of the fit (the tool pushes them)."""
-        return locate_crossing(tool.p0, tool.p1, x, corners, reach=tool.radius + 1.5 * self.spacing,
-                               fit_radius=tool.radius + 1.5 * self.spacing, exclude=1.5 * tool.radius,
-                               rest_positions=rest)
-
-    def _skin_near(self, sim: CutHost, tool: Tool, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(live nodes within 1.5 tool radii + 3 spacings of its axis (k,), corner positions
-        [m] of the live triangles at them (m, 3, 3))."""
-        nodes = self._nodes_near(sim, tool.p0, tool.p1, 1.5 * tool.radius + 3.0 * self.spacing)
-        corner_table = self.model.triangle_table.column("corners")
-        tris = sorted({t for v in nodes for t in self.editor.node_triangles[v]})
-        corners = x[corner_table[tris]].astype(np.float64) if tris else np.zeros((0, 3, 3))
-        return nodes, corners
-
-    def _nodes_near(self, sim: CutHost, a, b, radius: float) -> np.ndarray:
-        """Live nodes within ``radius`` [m] of segment a-b (one thread per node slot)."""
-        return self._hits.run(segment_node_hits, self.model.node_count, [
-            sim.state.positions, sim.device_model.node_flags, wp.vec3(*a), wp.vec3(*b), float(radius)])
 
     def start_incision(self, sim: CutHost, point, normal, sweep_radius: float) -> Incision:
         """Begin a new incision at ``point`` [m] on the skin with unit outward ``normal``; the
@@ -406,7 +313,7 @@ class Cutter:
         if inc.length <= tip_u:
             return
         tip, end = inc.point_at([tip_u, inc.length])
-        near = self._nodes_near(sim, tip, end, inc.sweep_radius + 2.0 * self.spacing)
+        near = self.contact.nodes_near(sim, tip, end, inc.sweep_radius + 2.0 * self.spacing)
         tris = np.array(sorted({t for v in near for t in self.editor.node_triangles[v]}), dtype=np.int64)
         if not len(tris):
             return
@@ -447,7 +354,7 @@ class Cutter:
             return  # the tool has not moved enough to extend the incision
         t0 = time.perf_counter()
         a, normal_then = inc.path[-1], inc.normals[-1] if normal is None else normal
-        near = self._nodes_near(sim, a, point, inc.sweep_radius + self.edge_reach)
+        near = self.contact.nodes_near(sim, a, point, inc.sweep_radius + self.edge_reach)
         x = self._positions_view(sim)
         self.swept_volume.cut(sim, inc, a, point, normal_then, near, x)
         self._reopen_tip(sim, inc, x)  # new stations may fall there
