@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh.geometry import triangle_areas
-from ..sim.prestress import membrane_edge_tensions
+from ..sim.prestress import prestressed_rest_lengths
 from ..sim.stiffness import van_gelder_stiffness
 from .classes import NodeClass, SpringClass
 
@@ -324,10 +324,9 @@ class TopologyEditor:
             self.delete_nodes(fragments)
             self.report.removed_fragments.extend(fragments)
         changed = self._changed_springs() if model.stiffness_model == "material" or model.prestress_tension else []
-        if model.prestress_tension:
-            model.spring_table.set("rest_length", changed, self._rest_shape_lengths(changed))
-        if model.stiffness_model == "material":
-            self._refresh_material_stiffness(changed)
+        if model.stiffness_model == "material":  # from the rest shape's lengths where they are prestressed
+            self._refresh_material_stiffness(changed, self._rest_shape_lengths(changed) if model.prestress_tension
+                                             else model.spring_table.column("rest_length")[changed])
         if model.prestress_tension:
             self._prestress(changed)
         if model.material.bending_rigidity > 0:
@@ -411,20 +410,19 @@ class TopologyEditor:
         slots = (self.spring_between(i, j) for i, j in self._changed_edges() if model.active[i] and model.active[j])
         return sorted(slot for slot in slots if slot is not None)
 
-    def _refresh_material_stiffness(self, slots: list[int]) -> None:
+    def _refresh_material_stiffness(self, slots: list[int], lengths: np.ndarray) -> None:
         """Give the springs ``slots`` (those whose triangles changed in this edit, new ones
-        included) their van Gelder stiffness from the triangles they now border
-        (``warp_cut.sim.stiffness``)."""
+        included) their van Gelder stiffness from the triangles they now border and their
+        ``lengths`` [m] (k,) (``warp_cut.sim.stiffness``); one of length 0 keeps its own."""
         model = self.model
-        areas, rest = model.triangle_table.column("area"), model.spring_table.column("rest_length")
-        pairs = model.spring_table.column("pairs")
-        slots = [slot for slot in slots if rest[slot] > 0]
+        areas, pairs = model.triangle_table.column("area"), model.spring_table.column("pairs")
+        keep = np.asarray(lengths) > 0
+        slots, lengths = [slot for slot, ok in zip(slots, keep) if ok], np.asarray(lengths)[keep]
         if slots:
             area_sums = [sum(areas[t] for t in self.triangles_with_edge(*(int(v) for v in pairs[slot])))
                          for slot in slots]
             material = model.material
-            k = van_gelder_stiffness(material.youngs_modulus, material.thickness, np.array(area_sums),
-                                     rest[slots] ** 2)
+            k = van_gelder_stiffness(material.youngs_modulus, material.thickness, np.array(area_sums), lengths ** 2)
             model.spring_table.set("stiffness", slots, k)
 
     def _rest_shape_lengths(self, slots: list[int]) -> np.ndarray:
@@ -436,21 +434,18 @@ class TopologyEditor:
     def _prestress(self, slots: list[int]) -> None:
         """Rest lengths of the springs ``slots`` (those whose triangles changed in this edit)
         that carry the model's membrane tension in the rest shape, as ``apply_prestress`` gives
-        the original springs: L0 = L - f / k, with L the length between the nodes' rest
-        positions and f the cotangent tension of the triangles each borders now
-        (``warp_cut.sim.prestress``). So a new spring carries the tension its neighbours carry,
-        and an edge the cut left on one triangle carries its side's share only (the traction
-        across the cut is released). f / (k L) is kept within +-``MAX_PRESTRAIN``: a triangle
-        nearly flat in the rest shape would otherwise give a rest length near 0, or a long one."""
+        the original springs (``warp_cut.sim.prestress.prestressed_rest_lengths``, from the
+        nodes' rest positions and the triangles each spring borders now). So a new spring
+        carries the tension its neighbours carry, and an edge the cut left on one triangle
+        carries its side's share only (the traction across the cut is released). f / (k L) is
+        kept within +-``MAX_PRESTRAIN``: a triangle nearly flat in the rest shape would
+        otherwise give a rest length near 0, or a long one."""
         if not slots:
             return
         model = self.model
         pairs = model.spring_table.column("pairs")[slots]
         triangles = sorted({t for i, j in pairs for t in self.triangles_with_edge(int(i), int(j))})
         corners = model.triangle_table.column("corners")[triangles].reshape(-1, 3)
-        f = membrane_edge_tensions(model.points, corners, pairs, model.prestress_tension)
-        length = self._rest_shape_lengths(slots)
-        k = model.spring_table.column("stiffness")[slots]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(k * length > 0.0, f / (k * length), 0.0)
-        model.spring_table.set("rest_length", slots, length * (1.0 - np.clip(ratio, -MAX_PRESTRAIN, MAX_PRESTRAIN)))
+        rest = prestressed_rest_lengths(model.points, corners, pairs, model.spring_table.column("stiffness")[slots],
+                                        model.prestress_tension, max_ratio=MAX_PRESTRAIN)
+        model.spring_table.set("rest_length", slots, rest)

@@ -80,7 +80,7 @@ def membrane_edge_tensions(points, triangles, springs, tension: float) -> np.nda
 
 
 def prestressed_rest_lengths(points, triangles, springs, stiffness, tension: float,
-                             what: str = "the membrane tension") -> np.ndarray:
+                             what: str = "the membrane tension", max_ratio: float | None = None) -> np.ndarray:
     """Rest lengths (s,) [m] that put the mesh in equilibrium under the membrane tension.
 
     Args:
@@ -90,12 +90,16 @@ def prestressed_rest_lengths(points, triangles, springs, stiffness, tension: flo
         stiffness: Spring stiffness k [N/m], scalar or shape (s,).
         tension: T [N/m].
         what: How the error message names the tension (e.g. the scene keys it comes from).
+        max_ratio: None: refuse a spring that cannot carry its tension (below). Else f / (k L)
+            is held within +-max_ratio, and a spring with k L = 0 carries none: the guard of a
+            cut's edit, whose triangles may be nearly flat (``TopologyEditor``).
 
     Returns:
         L0 = L - f / k, shape (s,).
 
     Raises:
-        InputError: if a spring would need L0 <= 0 (f >= k L) or carries tension with k = 0.
+        InputError: if ``max_ratio`` is None and a spring would need L0 <= 0 (f >= k L) or
+            carries tension with k = 0.
     """
     pts = np.asarray(points, dtype=np.float64)
     spr = np.asarray(springs, dtype=np.int64).reshape(-1, 2)
@@ -104,6 +108,8 @@ def prestressed_rest_lengths(points, triangles, springs, stiffness, tension: flo
     length = np.linalg.norm(pts[spr[:, 1]] - pts[spr[:, 0]], axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(f == 0.0, 0.0, f / (k * length))
+    if max_ratio is not None:
+        return length * (1.0 - np.where(np.isfinite(ratio), np.clip(ratio, -max_ratio, max_ratio), 0.0))
     bad = ~(ratio < 1.0)
     if np.any(bad):
         s = int(np.flatnonzero(bad)[0])
