@@ -171,6 +171,12 @@ def _cmd_view(args) -> int:
     return EXIT_OK
 
 
+def _add_overrides(parser) -> None:
+    """The ``--set SECTION.KEY=VALUE`` option (``load_scene``'s overrides)."""
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override a scene key (TOML value syntax); repeatable")
+
+
 def _add_server_options(parser) -> None:
     parser.add_argument("--port", type=int, default=0,
                         help="port of the page (default 0: any free port; a taken port is an error)")
@@ -195,8 +201,7 @@ def _add_run(sub) -> None:
     run.add_argument("scene", nargs="?", default=None,
                      help="scene file or bundled scene name (default: the default scene)")
     run.add_argument("--out", help="output directory (default: out/<scene name>)")
-    run.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                     help="override a scene key (TOML value syntax); repeatable")
+    _add_overrides(run)
     run.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     usd = run.add_mutually_exclusive_group()
     usd.add_argument("--usd", metavar="PATH",
@@ -216,7 +221,7 @@ def _add_run(sub) -> None:
     run.set_defaults(func=_cmd_run)
     val = sub.add_parser("validate", help="check a scene without running it")
     val.add_argument("scene")
-    val.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
+    _add_overrides(val)
     val.set_defaults(func=_cmd_validate)
 
 
@@ -256,8 +261,7 @@ def _add_experiment(sub) -> None:
                      help="output directory (default: out/wound)")
     wnd.add_argument("--scene", default="wound_gape",
                      help="the scene whose straight cut is compared (default: wound_gape)")
-    wnd.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                     help="override a key of that scene (TOML value syntax); repeatable")
+    _add_overrides(wnd)
     wnd.add_argument("--quick", action="store_true",
                      help="only the exact-slit checks (no run of the scene)")
     wnd.add_argument("--quiet", action="store_true", help="no summary")
@@ -282,8 +286,7 @@ def _add_batch(sub) -> None:
                                        "wound open, save the run (needs the live extra)")
     live.add_argument("scene", nargs="?", default=None,
                       help="scene file or bundled scene name with a [tool] (default: the default scene)")
-    live.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                      help="override a scene key (TOML value syntax); repeatable")
+    _add_overrides(live)
     live.add_argument("--out", help="default directory of the page's save button "
                                     "(default: out/<scene name>_live)")
     live.add_argument("--cut-in-background", action="store_true",
