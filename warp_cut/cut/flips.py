@@ -1,10 +1,21 @@
-"""Edge flips that take slivers out of the triangles a finished incision made.
+"""Edge flips among the triangles a cut made: slivers out, and a prestressed strip made Delaunay.
 
 Stage 3 fills each hole as the tool passes, so a fill made next to the moving tool can leave
 a sliver (a triangle with an angle under SLIVER_DEG, SPEC section 4). Once the tool has left
 the skin nothing moves the cut any more, and a sliver that shares its longest edge with
 another triangle the cut made is flipped (Lawson's flip: the quad's other diagonal) where that
 raises the pair's smallest angle and both new triangles face the skin's side the old pair did.
+
+In a prestressed sheet the rest shape also decides what each spring carries: an edge gets
+the cotangent tension (T/2)(cot a + cot b)|e| from the angles a, b opposite it, which is
+negative (a compressed spring) where a + b > 180 deg, i.e. where the edge is not locally
+Delaunay. The strip the fills leave beside the wound depends on where each event happened to
+cut (long diagonals across two or three lips, fans), and its springs then hold the lips
+unevenly: the opening measured at the lips scattered by +-15 % with the event interval. So
+once an incision is complete the edges between two triangles the cut made are flipped until
+each is locally Delaunay in the rest shape (Lawson's algorithm), where the new pair faces the
+skin's side in the rest shape and at the current positions.
+
 Only triangles the cut made are flipped: the tissue's own mesh, the wound's border (one
 triangle per edge) and any hole still open are left as they are.
 """
@@ -13,13 +24,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh.geometry import SLIVER_DEG, cross3, triangle_min_angles
+from ..mesh.geometry import SLIVER_DEG, cross3, edge_keys, half_edges, triangle_angles, triangle_min_angles
 from .classes import SpringClass
 
-__all__ = ["flip_slivers", "FACING_COS"]
+__all__ = ["flip_slivers", "flip_to_delaunay", "FACING_COS", "DELAUNAY_TOLERANCE_DEG"]
 
 FACING_COS = 0.5
 """A flipped triangle's normal must lie within 60 degrees of the old pair's mean normal."""
+
+DELAUNAY_TOLERANCE_DEG = 1e-6
+"""An edge is flipped to Delaunay when its two opposite angles sum above 180 deg by more than
+this (a cocircular quad, such as a rectangle split on either diagonal, is left alone)."""
 
 
 def _normal(x: np.ndarray) -> np.ndarray:
@@ -44,8 +59,10 @@ def _flip_of(editor, t: int, positions) -> tuple | None:
     return None
 
 
-def _flip_across(editor, t: int, i: int, j: int, k: int, positions) -> tuple | None:
-    """The flip of t = (i, j, k) across its edge i -> j, or None (see ``_flip_of``)."""
+def _other_diagonal(editor, t: int, i: int, j: int, k: int) -> tuple | None:
+    """Across t = (i, j, k)'s edge i -> j: (the partner u, its far corner l, the quad's two
+    triangles on the other diagonal k - l), or None on the border or where k - l is already
+    an edge."""
     partners = editor.triangles_with_edge(i, j) - {t}
     if len(partners) != 1:
         return None
@@ -53,18 +70,37 @@ def _flip_across(editor, t: int, i: int, j: int, k: int, positions) -> tuple | N
     l = next(int(v) for v in editor.model.triangle_table.column("corners")[u] if int(v) not in (i, j))
     if editor.spring_between(k, l) is not None:
         return None
-    new = [(i, l, k), (l, j, k)]
-    quad = positions[[i, j, k, l]]
-    local = {i: 0, j: 1, k: 2, l: 3}
-    old_angle = triangle_min_angles(quad, [[0, 1, 2], [1, 0, 3]]).min()
-    new_angle = triangle_min_angles(quad, [[local[v] for v in tri_] for tri_ in new]).min()
-    if new_angle <= old_angle:
-        return None
+    return u, l, [(i, l, k), (l, j, k)]
+
+
+def _faces_as_before(quad: np.ndarray, new_local) -> bool:
+    """Whether both new triangles (corner indices into ``quad``, the (4, 3) points i, j, k, l)
+    face within 60 deg of the old pair (i, j, k), (j, i, l)'s mean normal (``FACING_COS``)."""
     facing = _normal(quad[[0, 1, 2]]) + _normal(quad[[1, 0, 3]])
     facing /= max(np.linalg.norm(facing), 1e-300)
-    if any(_normal(quad[[local[v] for v in tri_]]) @ facing < FACING_COS for tri_ in new):
+    return all(_normal(quad[list(tri)]) @ facing >= FACING_COS for tri in new_local)
+
+
+def _flip_across(editor, t: int, i: int, j: int, k: int, positions) -> tuple | None:
+    """The flip of t = (i, j, k) across its edge i -> j that raises the pair's smallest angle,
+    or None (see ``_flip_of``)."""
+    other = _other_diagonal(editor, t, i, j, k)
+    if other is None:
         return None
-    return u, new
+    u, l, new = other
+    quad = positions[[i, j, k, l]]
+    new_local = [(0, 3, 2), (3, 1, 2)]
+    if triangle_min_angles(quad, new_local).min() <= triangle_min_angles(quad, [[0, 1, 2], [1, 0, 3]]).min():
+        return None
+    return (u, new) if _faces_as_before(quad, new_local) else None
+
+
+def _apply_flip(editor, candidates: set[int], t: int, u: int, new, positions) -> None:
+    """Replace triangles t and u by ``new`` (their new slots join ``candidates``)."""
+    editor.delete_triangles([t, u])
+    candidates.difference_update((t, u))
+    for tri in new:
+        candidates.add(editor.add_triangle(tri, positions, SpringClass.GREEN))
 
 
 def flip_slivers(editor, candidates: set[int], positions, *, rounds: int = 3) -> int:
@@ -87,11 +123,62 @@ def flip_slivers(editor, candidates: set[int], positions, *, rounds: int = 3) ->
             flip = _flip_of(editor, int(t), positions)
             if flip is None or flip[0] not in candidates:
                 continue
-            u, new = flip
-            editor.delete_triangles([int(t), u])
-            candidates.difference_update((int(t), u))
-            for tri in new:
-                candidates.add(editor.add_triangle(tri, positions, SpringClass.GREEN))
+            _apply_flip(editor, candidates, int(t), *flip, positions)
+            made += 1
+        flips += made
+        if not made:
+            break
+    return flips
+
+
+def _non_delaunay_edges(table, candidates: set[int], rest: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """Edges between two live ``candidates`` whose opposite angles in the rest shape ``rest``
+    (node_count, 3) [m] sum above 180 deg (+ ``DELAUNAY_TOLERANCE_DEG``), worst first, each as
+    (t, i, j, k): one of its triangles t = (i, j, k) and the edge i -> j."""
+    live = np.array(sorted(t for t in candidates if table.alive[t]), dtype=np.int64)
+    if len(live) < 2:
+        return []
+    corners = table.column("corners")[live]                                        # (m, 3)
+    opposite = triangle_angles(rest, corners)[:, [2, 0, 1]].ravel()               # (3 m,) at edge q's far corner
+    edges = half_edges(corners)                                                   # (3 m, 2): (c_q, c_q+1)
+    keys = edge_keys(np.sort(edges, axis=1), len(rest))
+    order = np.argsort(keys, kind="stable")
+    shared = np.flatnonzero(keys[order][1:] == keys[order][:-1])
+    a, b = order[shared], order[shared + 1]
+    total = opposite[a] + opposite[b]
+    bad = np.flatnonzero(total > 180.0 + DELAUNAY_TOLERANCE_DEG)
+    out = []
+    for h in a[bad[np.argsort(-total[bad])]]:
+        tri, q = corners[h // 3], h % 3
+        out.append((int(live[h // 3]), int(tri[q]), int(tri[(q + 1) % 3]), int(tri[(q + 2) % 3])))
+    return out
+
+
+def flip_to_delaunay(editor, candidates: set[int], rest: np.ndarray, positions, *, rounds: int = 50) -> int:
+    """Flip the edges between two of ``candidates`` (live triangle slots the cut made) until
+    each is locally Delaunay in the rest shape ``rest`` (node_count, 3) [m] (Lawson's
+    algorithm; see the module doc), in an edit already begun on ``editor``. A flip is made only
+    where both new triangles face the old pair's side in the rest shape and at the current
+    ``positions`` [m] (indexable by node arrays), and the other diagonal is not an edge yet.
+    Repeats up to ``rounds`` passes; returns the flips made. The caller finishes the edit."""
+    table = editor.model.triangle_table
+    flips = 0
+    for _ in range(rounds):
+        made = 0
+        for t, i, j, k in _non_delaunay_edges(table, candidates, rest):
+            if t not in candidates or not table.alive[t] or {i, j, k} != set(table.column("corners")[t].tolist()):
+                continue  # an earlier flip this pass took it
+            other = _other_diagonal(editor, t, i, j, k)
+            if other is None or other[0] not in candidates:
+                continue
+            u, l, new = other
+            new_local = [(0, 3, 2), (3, 1, 2)]
+            angles = triangle_angles(rest[[i, j, k, l]], [[0, 1, 2], [1, 0, 3]])  # u may be new this pass
+            if angles[0, 2] + angles[1, 2] <= 180.0 + DELAUNAY_TOLERANCE_DEG:
+                continue
+            if not all(_faces_as_before(x[[i, j, k, l]], new_local) for x in (rest, positions)):
+                continue
+            _apply_flip(editor, candidates, t, u, new, positions)
             made += 1
         flips += made
         if not made:
