@@ -14,7 +14,8 @@ from conftest import DEVICE
 
 from warp_cut import InputError, Material, Simulator, TissueModel
 from warp_cut.cut.slit import open_slit
-from warp_cut.experiments.wound import griffith_gap, scene_cut_comparisons, slit_comparison
+from warp_cut.experiments.wound import (cutter_comparison, griffith_gap, quasi_static_cut, scene_cut_comparisons,
+                                       slit_comparison)
 from warp_cut.scene import load_scene
 from warp_cut.sim.statics import spring_network_forces, static_equilibrium
 
@@ -108,12 +109,29 @@ def test_cli_refuses_a_bad_scene_before_running(tmp_path):
 def test_the_scalpels_cut_opens_like_fracture_mechanics_once_the_sheet_has_settled():
     """``wound_gape`` run as it is (a 4 cm cut, T = 4 N/m, 2 mm lattice), its cut sheet solved for
     static equilibrium: with the border loaded as a large plate the lips' gap follows Griffith's
-    ellipse (median over the middle 80 % within 5 %, every station there within 20 %: the
-    re-meshed strip's springs and a tip placed to about a spacing; docs/wound.md). The cut
-    opened 0.63 of it before its springs carried the tension and its lips followed the gape.
-    The pinned border holds it back, and at the scene's end it is still opening."""
+    ellipse (median over the middle 80 % within 5 %, every station there within 10 %;
+    docs/wound.md). The cut opened 0.63 of it before its springs carried the tension and its
+    lips followed the gape. The pinned border holds it back, and at the scene's end it is still
+    opening."""
     now, pinned, plate = scene_cut_comparisons(load_scene("wound_gape"))
     assert plate.half_length == pytest.approx(0.020, rel=0.01) and plate.tension == pytest.approx(4.0)
-    assert abs(plate.median_ratio() - 1.0) < 0.05 and plate.max_error() < 0.2
+    assert abs(plate.median_ratio() - 1.0) < 0.05 and plate.max_error() < 0.10
     assert pinned.median_ratio() < plate.median_ratio() - 0.05
     assert now.median_ratio() < pinned.median_ratio()
+
+
+def test_the_opening_does_not_depend_on_where_the_cut_events_fell():
+    """The same straight cut (``wound_gape``'s, on a 100 x 80 mm patch) made in 40 and in 114
+    events without dynamics, then settled under a loaded border: the strip the fills leave beside
+    the lips differs, but once the cut is flipped to Delaunay in its rest shape both open as the
+    ellipse says, every station within 10 %, medians within 3 % of each other. (Without the
+    flips the median ranged from 0.97 to 1.08 and single stations reached 1.3: docs/wound.md.)"""
+    scene = load_scene("wound_gape", ["tissue.size=[0.1, 0.08]"])
+    ratios = []
+    for events in (40, 114):
+        cutter, x = quasi_static_cut(scene, events)
+        assert cutter.totals["delaunay_flips"] > 0
+        c = cutter_comparison(f"{events} events", cutter, x, scene)
+        assert c.middle().sum() >= 15 and c.max_error() < 0.10
+        ratios.append(c.median_ratio())
+    assert abs(ratios[0] - ratios[1]) < 0.03

@@ -19,6 +19,7 @@ from warp_cut import InputError, Material, SceneError, Simulator, TissueModel
 from warp_cut.cut.classes import NodeClass
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.cut.topology import MAX_PRESTRAIN
+from warp_cut.mesh.geometry import edges_of
 from warp_cut.mesh.patch import skin_patch_mesh
 from warp_cut.mesh.surfaces import flat_grid, jittered_delaunay
 from warp_cut.scene import load_scene, parse_scene
@@ -206,6 +207,26 @@ def test_a_cut_sheet_carries_the_same_tension_in_its_rest_shape(stiffness_model)
     links_model, _, _ = quasi_static_cut(Material(), stiffness_model)
     assert links_model.link_count > 0  # the same cut in the links model leaves links
     assert links_model.prestress_tension == 0.0
+
+
+def test_a_finished_cut_leaves_no_compressed_spring_between_the_triangles_it_made():
+    """An edge's cotangent tension (T/2)(cot a + cot b)|e| is negative where its opposite angles
+    sum above 180 deg: once the incision ends, the cut's own triangles are flipped to Delaunay in
+    the rest shape, and every spring between two of them carries tension (computed here from the
+    rest shape's angles)."""
+    model, sim, _ = quasi_static_cut(PRESTRESS)
+    sim.cutter.end_incision(sim)
+    table = model.triangle_table
+    made = np.array(sorted(t for t in sim.cutter.new_triangles if table.alive[t]))
+    corners = table.column("corners")[made]
+    edges, counts = edges_of(corners, return_counts=True)
+    inner = edges[counts == 2]
+    assert len(inner) > 20 and sim.cutter.totals["delaunay_flips"] > 0
+    tension = membrane_edge_tensions(model.points, model.triangles, inner, PRESTRESS.membrane_tension)
+    assert tension.min() >= -1e-12
+    for i, j in inner:  # and the springs carry it: stretched in the rest shape
+        slot = sim.cutter.editor.spring_between(int(i), int(j))
+        assert model.spring_table.column("rest_length")[slot] <= np.linalg.norm(model.points[i] - model.points[j])
 
 
 def test_a_moving_tool_cut_leaves_one_tension_and_lips_that_follow_the_gape():

@@ -46,7 +46,7 @@ from ..sim.stability import ElementRates, StepLimit
 from ..sim.state import State
 from .classes import NodeClass
 from .contact import BladeContact
-from .flips import flip_slivers
+from .flips import flip_slivers, flip_to_delaunay
 from .incision import Incision
 from .lip_slots import lips_inside
 from .measures import coverage, incision_width, lip_deviation
@@ -164,7 +164,7 @@ class Cutter:
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
                        "carried_links": 0, "lost_links": 0, "lip_nodes": 0, "lip_nodes_removed": 0,
-                       "new_springs": 0, "removed_fragments": 0, "sliver_flips": 0, "events": 0}
+                       "new_springs": 0, "removed_fragments": 0, "sliver_flips": 0, "delaunay_flips": 0, "events": 0}
         self.new_triangles: set[int] = set()
         self.contact_path: list[np.ndarray] = []
         self.unfilled_holes = 0
@@ -189,7 +189,7 @@ class Cutter:
         self._retry_holes(sim)
         if not cutting:
             if not any(inc.open_chains for inc in self.incisions):
-                self._flip_slivers(sim)  # the tissue settling after a stroke can thin its triangles
+                self._flip_made_triangles(sim)  # the tissue settling after a stroke can thin its triangles
             return
         poses, self._poses = self._poses, []
         tip_before, self._tip_before = self._tip_before, tool.p0
@@ -272,23 +272,27 @@ class Cutter:
         else:
             self.editor.finish()
         if not inc.open_chains:
-            self._flip_slivers(sim)
+            self._flip_made_triangles(sim)
 
-    def _flip_slivers(self, sim: CutHost) -> None:
-        """Flip the slivers among the triangles the cut made (``warp_cut.cut.flips``), once the
-        tool has left the skin and no hole is open, as an edit of its own: when an incision
-        ends, and at every event while there is no tool (the tissue settling after a stroke can
-        pull its triangles thin)."""
+    def _flip_made_triangles(self, sim: CutHost) -> None:
+        """Flip among the triangles the cut made (``warp_cut.cut.flips``), once the tool has left
+        the skin and no hole is open, as an edit of its own: in a prestressed sheet to Delaunay
+        in the rest shape (so every spring between them carries tension), then the slivers.
+        When an incision ends, and at every event while there is no tool (the tissue settling
+        after a stroke can pull its triangles thin)."""
         if not self.new_triangles:
             return  # nothing cut yet: no positions to read, no edit to begin
         editor = self.editor
         editor.begin()
         positions = NodePositions(self._positions_view(sim))
-        flips = flip_slivers(editor, set(self.new_triangles), positions)
-        if not flips:
+        candidates = set(self.new_triangles)
+        delaunay = flip_to_delaunay(editor, candidates, self.model.points, positions) if self.model.prestress_tension else 0
+        slivers = flip_slivers(editor, candidates, positions)
+        if not delaunay + slivers:
             return  # nothing edited: no version bump, nothing for a background loop to mirror
         report = editor.finish(positions=positions)
-        self.totals["sliver_flips"] += flips
+        self.totals["sliver_flips"] += slivers
+        self.totals["delaunay_flips"] += delaunay
         self._apply(sim, report, positions)
         self.new_triangles.update(report.new_triangles)
         self.new_triangles.difference_update(report.deleted_triangles)

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import InputError
 from ..mesh.geometry import triangle_areas
 from ..sim.prestress import prestressed_rest_lengths
-from ..sim.stiffness import van_gelder_stiffness
+from ..sim.stiffness import membrane_modulus, van_gelder_stiffness
 from .classes import NodeClass, SpringClass
 
 __all__ = ["TopologyEditor", "EditReport", "NodePositions", "MAX_PRESTRAIN"]
@@ -323,12 +323,12 @@ class TopologyEditor:
         if fragments:
             self.delete_nodes(fragments)
             self.report.removed_fragments.extend(fragments)
-        changed = self._changed_springs() if model.stiffness_model == "material" or model.prestress_tension else []
-        if model.stiffness_model == "material":  # from the rest shape's lengths where they are prestressed
-            self._refresh_material_stiffness(changed, self._rest_shape_lengths(changed) if model.prestress_tension
+        if model.stiffness_model == "material" or model.prestress_tension:
+            changed = self._changed_springs()
+            self._refresh_membrane_stiffness(changed, self._rest_shape_lengths(changed) if model.prestress_tension
                                              else model.spring_table.column("rest_length")[changed])
-        if model.prestress_tension:
-            self._prestress(changed)
+            if model.prestress_tension:
+                self._prestress(changed)
         if model.material.bending_rigidity > 0:
             self._refresh_hinges(model.points if positions is None else positions)
         touched = np.array(sorted(v for v in self._touched if model.active[v]), dtype=np.int64)
@@ -410,10 +410,15 @@ class TopologyEditor:
         slots = (self.spring_between(i, j) for i, j in self._changed_edges() if model.active[i] and model.active[j])
         return sorted(slot for slot in slots if slot is not None)
 
-    def _refresh_material_stiffness(self, slots: list[int], lengths: np.ndarray) -> None:
+    def _refresh_membrane_stiffness(self, slots: list[int], lengths: np.ndarray) -> None:
         """Give the springs ``slots`` (those whose triangles changed in this edit, new ones
         included) their van Gelder stiffness from the triangles they now border and their
-        ``lengths`` [m] (k,) (``warp_cut.sim.stiffness``); one of length 0 keeps its own."""
+        ``lengths`` [m] (k,) (``warp_cut.sim.stiffness``); one of length 0 keeps its own.
+
+        The sheet's modulus is ``membrane_modulus``: E t with material springs, and with the
+        paper's constant K (in a prestressed sheet only) the 2 K / sqrt(3) of the lattice, so
+        the re-meshed strip beside the wound is as compliant as the sheet around it whatever
+        its triangles' shapes (K itself on an equilateral triangle pair)."""
         model = self.model
         areas, pairs = model.triangle_table.column("area"), model.spring_table.column("pairs")
         keep = np.asarray(lengths) > 0
@@ -421,8 +426,8 @@ class TopologyEditor:
         if slots:
             area_sums = [sum(areas[t] for t in self.triangles_with_edge(*(int(v) for v in pairs[slot])))
                          for slot in slots]
-            material = model.material
-            k = van_gelder_stiffness(material.youngs_modulus, material.thickness, np.array(area_sums), lengths ** 2)
+            modulus = membrane_modulus(model.material, model.stiffness_model)
+            k = van_gelder_stiffness(modulus, np.array(area_sums), lengths ** 2)
             model.spring_table.set("stiffness", slots, k)
 
     def _rest_shape_lengths(self, slots: list[int]) -> np.ndarray:

@@ -21,16 +21,25 @@ import numpy as np
 
 from ..mesh.geometry import edge_keys, half_edges, triangle_areas
 
-__all__ = ["STIFFNESS_MODELS", "material_stiffness", "van_gelder_stiffness"]
+__all__ = ["STIFFNESS_MODELS", "material_stiffness", "membrane_modulus", "van_gelder_stiffness"]
 
 STIFFNESS_MODELS = ("constant", "material")
 """``[material] stiffness_model`` values: the paper's constant K, or derived from E and t."""
 
 
-def van_gelder_stiffness(youngs_modulus: float, thickness: float, area_sum, length_sq):
-    """k = E t sum|T| / |e|^2 [N/m] for edges with adjacent triangle area ``area_sum`` [m^2] and
-    squared length ``length_sq`` [m^2] (scalars or arrays)."""
-    return youngs_modulus * thickness * np.asarray(area_sum) / np.asarray(length_sq)
+def membrane_modulus(material, stiffness_model: str) -> float:
+    """The sheet's in-plane Young's modulus x thickness, E2D [N/m]: E t for ``"material"``
+    springs; for the paper's constant K, that of a near-equilateral lattice, 2 K / sqrt(3)
+    (``material`` a ``warp_cut.sim.material.Material``)."""
+    if stiffness_model == "material":
+        return material.youngs_modulus * material.thickness
+    return 2.0 * material.stiffness / np.sqrt(3.0)
+
+
+def van_gelder_stiffness(modulus_2d: float, area_sum, length_sq):
+    """k = E2D sum|T| / |e|^2 [N/m] for edges with adjacent triangle area ``area_sum`` [m^2] and
+    squared length ``length_sq`` [m^2] (scalars or arrays) in a sheet of E2D = E t [N/m]."""
+    return modulus_2d * np.asarray(area_sum) / np.asarray(length_sq)
 
 
 def material_stiffness(points, triangles, springs, youngs_modulus: float, thickness: float,
@@ -65,5 +74,5 @@ def material_stiffness(points, triangles, springs, youngs_modulus: float, thickn
     length2 = np.sum((pts[spr[:, 1]] - pts[spr[:, 0]]) ** 2, axis=1)
     k = np.broadcast_to(np.asarray(fallback, dtype=np.float64), (len(spr),)).copy()
     has = (area_sum > 0) & (length2 > 0)
-    k[has] = van_gelder_stiffness(youngs_modulus, thickness, area_sum[has], length2[has])
+    k[has] = van_gelder_stiffness(youngs_modulus * thickness, area_sum[has], length2[has])
     return k
