@@ -14,8 +14,13 @@ from conftest import DEVICE
 
 from warp_cut import InputError, Material, Simulator, TissueModel
 from warp_cut.cut.slit import open_slit
-from warp_cut.experiments.wound import (cutter_comparison, griffith_gap, quasi_static_cut, scene_cut_comparisons,
-                                       slit_comparison)
+from warp_cut.experiments.wound import (
+    cutter_comparison,
+    griffith_gap,
+    quasi_static_cut,
+    scene_cut_comparisons,
+    slit_comparison,
+)
 from warp_cut.scene import load_scene
 from warp_cut.sim.statics import spring_network_forces, static_equilibrium
 

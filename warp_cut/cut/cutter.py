@@ -286,7 +286,9 @@ class Cutter:
         editor.begin()
         positions = NodePositions(self._positions_view(sim))
         candidates = set(self.new_triangles)
-        delaunay = flip_to_delaunay(editor, candidates, self.model.points, positions) if self.model.prestress_tension else 0
+        delaunay = 0
+        if self.model.prestress_tension:
+            delaunay = flip_to_delaunay(editor, candidates, self.model.points, positions)
         slivers = flip_slivers(editor, candidates, positions)
         if not delaunay + slivers:
             return  # nothing edited: no version bump, nothing for a background loop to mirror

@@ -13,125 +13,17 @@ Triangles keep the winding of the surface they replace.
 
 from __future__ import annotations
 
-import math
-from collections import defaultdict
-
 import numpy as np
 
-from ..mesh.geometry import cross3, plane_frame, triangle_min_angles
+from ..mesh.geometry import cross3, triangle_min_angles
 from .classes import NodeClass, SpringClass
+from .hole_chains import hole_chains, split_at_lips, start_at_slit_start
+from .hole_views import UP, hole_views
 from .incision import closest_on_polyline
 from .lip_slots import PLACEHOLDER, LipSlots, lips_for_chain
 from .strip import ear_clip, hole_polygon, turns_with, zip_strip
 
-__all__ = ["hole_chains", "fill_hole"]
-
-
-def hole_chains(editor, removed_corners, open_chains=()) -> list[list[int]]:
-    """Border chains of the hole left by removed triangles (their corners, winding order).
-
-    A chain follows the directed edges a -> b of removed triangles that a surviving triangle
-    still uses (it is the hole's border, oriented like the removed surface). Closed chains
-    repeat their first node at the end. Edges on the tissue's outer border break chains.
-    ``open_chains``: borders of holes an earlier event left open, joined in again.
-    """
-    active = editor.model.active
-    nxt: dict[int, list[int]] = defaultdict(list)
-    incoming: dict[int, int] = defaultdict(int)
-    seen = set()
-    edges = [(i, j) for a, b, c in removed_corners for i, j in ((a, b), (b, c), (c, a))]
-    edges += [(i, j) for chain in open_chains for i, j in zip(chain[:-1], chain[1:])]
-    for i, j in edges:
-        if (i, j) in seen or not (active[i] and active[j]):
-            continue
-        if len(editor.triangles_with_edge(i, j)) == 1 and not _runs(editor, i, j):
-            seen.add((i, j))
-            nxt[i].append(j)
-            incoming[j] += 1
-    chains = []
-    starts = [v for v in nxt if incoming[v] == 0]
-    while True:
-        if starts:
-            v = starts.pop()
-        else:
-            remaining = [u for u, outs in nxt.items() if outs]
-            if not remaining:
-                break
-            v = remaining[0]
-        chain = [v]
-        while nxt.get(v):
-            v = nxt[v].pop()
-            chain.append(v)
-            if v == chain[0]:
-                break
-        if len(chain) > 1:
-            chains.extend(_split_pinches(chain))
-    return chains
-
-
-def _split_pinches(chain: list[int]) -> list[list[int]]:
-    """A border chain that passes a node twice (two lobes of a hole touching at a node) as
-    simple chains: each lobe a closed loop of its own, and what is left."""
-    closed = chain[0] == chain[-1]
-    body = chain[:-1] if closed else list(chain)
-    loops, stack, where = [], [], {}
-    for v in body:
-        if v in where:  # the lobe since the last visit is a loop of its own
-            k = where[v]
-            loop = stack[k:] + [v]
-            for u in stack[k + 1:]:
-                where.pop(u, None)
-            del stack[k + 1:]
-            if len(loop) > 3:
-                loops.append(loop)
-            continue
-        where[v] = len(stack)
-        stack.append(v)
-    rest = stack + [stack[0]] if closed else stack
-    return ([rest] if len(rest) > 1 else []) + loops
-
-
-def _runs(editor, a, b) -> bool:
-    """True if a live triangle already runs the edge a -> b (the hole must run it b -> a)."""
-    corners = editor.model.triangle_table.column("corners")
-    for t in editor.triangles_with_edge(a, b):
-        c = corners[t]
-        if any(c[k] == a and c[(k + 1) % 3] == b for k in range(3)):
-            return True
-    return False
-
-
-def _split_at_lips(chain, slots: LipSlots) -> list[list[int]]:
-    """A border chain cut at the live lip nodes (and the start or end node) it passes: the
-    hole touches the slit's border there, and each piece is filled against the lips between
-    its two ends (a lip inside a piece would be paired with other lips across the slit). A
-    piece that is one edge between two such nodes is the slit's border itself: dropped."""
-    lips = set(slots.theta)
-    cuts = [k for k in range(1, len(chain) - 1) if chain[k] in lips]
-    if not cuts:
-        return [chain]
-    if chain[0] == chain[-1] and chain[0] not in lips:  # closed: begin at a lip
-        body = chain[:-1]
-        chain = body[cuts[0]:] + body[:cuts[0]] + [body[cuts[0]]]
-        cuts = [k for k in range(1, len(chain) - 1) if chain[k] in lips]
-    ends = [0] + cuts + [len(chain) - 1]
-    pieces = [chain[a:b + 1] for a, b in zip(ends[:-1], ends[1:])]
-    return [p for p in pieces if len(p) > 2 or not (p[0] in lips and p[-1] in lips)]
-
-
-def _start_at_slit_start(chain, incision, slots: LipSlots) -> list[int]:
-    """A closed chain rotated to begin (and end) at the slit's start node, or the node nearest
-    it (theta ~ 0); an open chain as it is."""
-    if chain[0] != chain[-1]:
-        return chain
-    body = chain[:-1]
-    total = 2.0 * incision.length
-    if incision.start_node in body:
-        k = body.index(incision.start_node)
-    else:
-        slots.projected(body)  # all at once
-        k = int(np.argmin([min(slots.theta_of(v), total - slots.theta_of(v)) for v in body]))
-    return body[k:] + body[:k] + [body[k]]
+__all__ = ["fill_hole"]
 
 
 def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_slivers, slots, tool=None):
@@ -151,12 +43,12 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
     candidates = []  # (smallest angle [deg], triangles)
     rest = slots.rest_positions() if editor.model.prestress_tension else None
     if lips:
-        strip = zip_strip(chain, lips, chart, _UP, lips_only)
-        if _acceptable(strip, editor, chart, _UP, slots, lips_only):
+        strip = zip_strip(chain, lips, chart, UP, lips_only)
+        if _acceptable(strip, editor, chart, UP, slots, lips_only):
             candidates.append((_min_angle(strip, positions, rest), strip))
     if not candidates or candidates[0][0] < min_angle_deg:
-        ears = ear_clip(hole_polygon(chain, lips), chart, _UP, lips_only)
-        if _acceptable(ears, editor, chart, _UP, slots, lips_only):
+        ears = ear_clip(hole_polygon(chain, lips), chart, UP, lips_only)
+        if _acceptable(ears, editor, chart, UP, slots, lips_only):
             candidates.append((_min_angle(ears, positions, rest), ears))
     facing = [c for c in candidates if _faces_out(c[1], positions, slots.incision, tool)]
     # a triangle turned over on the skin (nodes the tool displaced) waits while the tool cuts;
@@ -274,7 +166,7 @@ def _hole_pieces(editor, incision, removed_corners, positions, open_chains):
     chains = hole_chains(editor, removed_corners, open_chains)
     slots = LipSlots(editor, incision, positions)
     pieces = [piece for chain in chains
-              for piece in _split_at_lips(_start_at_slit_start(chain, incision, slots), slots)]
+              for piece in split_at_lips(start_at_slit_start(chain, incision, slots), slots)]
     return chains, slots, pieces
 
 
@@ -326,7 +218,7 @@ def _fill_chain(chain, editor, incision, positions, slots: LipSlots, notch: bool
         if tool is not None and slots.proposed_inside(tool):
             slots.discard()
             return "under_tool", None
-        for view in _views(incision, positions, chain + lips):
+        for view in hole_views(incision, positions, chain + lips):
             tris = _triangulate(chain, lips, editor, view, positions, min_angle_deg, defer_slivers, slots, tool)
             if tris is not None:
                 return "filled", tris
@@ -348,9 +240,9 @@ def _close_over(chain, editor, incision, positions, slots: LipSlots):
     if float(u.max() - u.min()) > _CLOSE_OVER_SPAN * incision.spacing:
         return None
     polygon = hole_polygon(chain, [])
-    for view in _views(incision, positions, polygon):
-        ears = ear_clip(polygon, view, _UP)
-        if _acceptable(ears, editor, view, _UP, slots, may_join=True):
+    for view in hole_views(incision, positions, polygon):
+        ears = ear_clip(polygon, view, UP)
+        if _acceptable(ears, editor, view, UP, slots, may_join=True):
             return ears
     return None
 
@@ -393,54 +285,6 @@ def _on_outer_border(editor, v: int, lips: set) -> bool:
             if w != v and w not in lips and len(editor.triangles_with_edge(v, w)) == 1:
                 return True
     return False
-
-
-_UP = np.array([0.0, 0.0, 1.0])
-"""The skin's outward normal in a hole's coordinates (``_PlaneView``, ``_ChartView``)."""
-
-
-class _HoleCoordinates:
-    """A hole's nodes in 3D coordinates where the skin faces +z, indexed like
-    ``NodePositions``: the fill's orientation tests and ear clipping work in them."""
-
-    def __init__(self, nodes, xyz):
-        self._xyz = dict(zip(nodes, np.asarray(xyz, dtype=np.float64)))
-
-    def __getitem__(self, index):
-        if isinstance(index, (int, np.integer)):
-            return self._xyz[int(index)]
-        return np.array([self._xyz[int(i)] for i in index], dtype=np.float64).reshape(-1, 3)
-
-
-def _views(incision, positions, nodes):
-    """The hole's coordinates to triangulate it in, best first: seen along the skin's mean
-    outward normal there, or, where the skin turns by more than 30 degrees across the hole
-    (one plane would fold it), first in the slit chart. A generator: the second view is made
-    only if the first gives no fill."""
-    nodes = list(dict.fromkeys(nodes))
-    x = positions[nodes]
-    normals = incision.normal_at(incision.project(x)[0])
-    n = normals.sum(axis=0)
-    n /= np.linalg.norm(n)
-    if float((normals @ n).min()) >= math.cos(math.radians(30.0)):
-        yield _plane_view(nodes, x, n)
-        yield _chart_view(incision, nodes, x)
-    else:
-        yield _chart_view(incision, nodes, x)
-        yield _plane_view(nodes, x, n)
-
-
-def _plane_view(nodes, x, n) -> _HoleCoordinates:
-    """Nodes at ``x`` (k, 3) [m] seen along the unit normal ``n``."""
-    e1, e2 = plane_frame(n)
-    return _HoleCoordinates(nodes, x @ np.stack([e1, e2, n]).T)
-
-
-def _chart_view(incision, nodes, x) -> _HoleCoordinates:
-    """Nodes at ``x`` (k, 3) [m] in the slit chart (u, v, 0) (``Incision.chart``), which
-    follows the curve on curved skin where one plane would fold."""
-    uv = incision.chart(x)
-    return _HoleCoordinates(nodes, np.column_stack([uv, np.zeros(len(nodes))]))
 
 
 def _faces_out(tris, positions, incision, tool=None) -> bool:
