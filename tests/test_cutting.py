@@ -926,3 +926,23 @@ def test_a_closed_hole_touching_the_slit_at_one_lip_is_opened_back_once_the_tool
                           0.002603699679355064, 0.012869540201519173)
     assert_no_hole_after(sim, surface, last, (74.3084937751052, 0.0031040609890540314, 0.0025703138063052446,
                                               0.012907917542793617, 0.042295742719601404), min_coverage=0.55)
+
+
+@pytest.mark.xfail(strict=True, reason="known defect (docs/cutting.md, 'Crossing an earlier cut'): a hole open to an "
+                   "earlier wound puts off fills under 15 degrees without its deferrals being counted, grows past any "
+                   "valid fill and stays open; counting them leaves slivers on more strokes")
+def test_a_hole_open_to_an_earlier_wound_is_filled():
+    """A thick tool (r 2.8 mm on a 1.56 mm grid, 46 degrees, gravity and the foundation on) drawn
+    in a zigzag across an earlier cut (fuzz case 1461883172, seed 20261216). Its hole runs into
+    that wound; its valid fills (smallest angles 10.6 and 12.1 degrees) are put off while the
+    tool cuts, the hole grows until no fill is valid, and it stays open: no start node, no lip,
+    coverage 0."""
+    surface = flat_grid(0.036629300770886386, 0.0015647787636662376)
+    sim = supported_sim(surface, 0.026617031967400742)
+    first = strokes.line([-0.0015925782943863667, 0.007461524231106489], 4.082171763108944, 0.013006440877780235)
+    one_valid_incision(sim, surface, first, 42.66024242951193, 0.0010255224794052317, 0.002633525991210475,
+                       0.03526371591671693, 0.04453941216440853)
+    second = strokes.zigzag([-0.006007462387141013, 0.007435145690268105], -1.4129884219169735, 0.010018133327602931,
+                            0.003374948936818331, 0.010120849815772293)
+    assert_no_hole_after(sim, surface, second, (45.511919910802334, 0.0028014336635634866, 0.0019813485704094536,
+                                                0.02526845832930826, 0.039908469957029465), min_coverage=0.4)
