@@ -229,6 +229,32 @@ def test_a_finished_cut_leaves_no_compressed_spring_between_the_triangles_it_mad
         assert model.spring_table.column("rest_length")[slot] <= np.linalg.norm(model.points[i] - model.points[j])
 
 
+def test_a_finished_cut_takes_the_sheets_modulus_and_not_before():
+    """With the paper's constant K, the springs a cut makes are K while it cuts (its strip's
+    triangles are not final); once the incision ends, every spring of its triangles gets van
+    Gelder's stiffness for the lattice's modulus 2K/sqrt(3): (2K/sqrt(3)) x (its triangles'
+    area) / L^2 in the rest shape, computed here from the triangles."""
+    K = PRESTRESS.stiffness
+    model, sim, _ = quasi_static_cut(PRESTRESS)
+    cutter = sim.cutter
+    live = model.spring_table.alive.copy()
+    assert np.all(model.spring_table.column("stiffness")[live] == K)
+    cutter.end_incision(sim)
+    table = model.triangle_table
+    made = [t for t in cutter.new_triangles if table.alive[t]]
+    corners = table.column("corners")[made]
+    edges = np.unique(np.sort(np.concatenate([corners[:, [0, 1]], corners[:, [1, 2]], corners[:, [2, 0]]]), axis=1),
+                      axis=0)
+    tri, x = model.triangles, model.points
+    area = 0.5 * np.linalg.norm(np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]]), axis=1)
+    for i, j in edges:
+        on_edge = np.isin(tri, [i, j]).sum(axis=1) == 2
+        expected = 2 * K / np.sqrt(3) * area[on_edge].sum() / np.sum((x[i] - x[j]) ** 2)
+        slot = cutter.editor.spring_between(int(i), int(j))
+        assert model.spring_table.column("stiffness")[slot] == pytest.approx(expected, rel=1e-6)  # float32 areas
+    assert len(edges) > 30
+
+
 def test_a_moving_tool_cut_leaves_one_tension_and_lips_that_follow_the_gape():
     """A tilted scalpel drawn across a prestressed jittered Delaunay disk (the lips made while
     the wound gapes): the rest shape is still under the one tension (every free node pulled

@@ -166,6 +166,8 @@ class Cutter:
                        "carried_links": 0, "lost_links": 0, "lip_nodes": 0, "lip_nodes_removed": 0,
                        "new_springs": 0, "removed_fragments": 0, "sliver_flips": 0, "delaunay_flips": 0, "events": 0}
         self.new_triangles: set[int] = set()
+        self._membrane_unsettled = False
+        """The cut made triangles since its springs last took the sheet's modulus."""
         self.contact_path: list[np.ndarray] = []
         self.unfilled_holes = 0
         # compile the cut's kernels now, so that no cut event pays for it
@@ -277,27 +279,43 @@ class Cutter:
     def _flip_made_triangles(self, sim: CutHost) -> None:
         """Flip among the triangles the cut made (``warp_cut.cut.flips``), once the tool has left
         the skin and no hole is open, as an edit of its own: in a prestressed sheet to Delaunay
-        in the rest shape (so every spring between them carries tension), then the slivers.
-        When an incision ends, and at every event while there is no tool (the tissue settling
-        after a stroke can pull its triangles thin)."""
+        in the rest shape (so every spring between them carries tension), then the slivers; a
+        prestressed sheet's cut then takes the sheet's modulus (``TopologyEditor.settle_membrane``)
+        if anything was cut or flipped since it last did. When an incision ends, and at every
+        event while there is no tool (the tissue settling after a stroke can pull its triangles
+        thin)."""
         if not self.new_triangles:
             return  # nothing cut yet: no positions to read, no edit to begin
         editor = self.editor
         editor.begin()
         positions = NodePositions(self._positions_view(sim))
         candidates = set(self.new_triangles)
-        delaunay = 0
-        if self.model.prestress_tension:
-            delaunay = flip_to_delaunay(editor, candidates, self.model.points, positions)
+        prestressed = bool(self.model.prestress_tension)
+        delaunay = flip_to_delaunay(editor, candidates, self.model.points, positions) if prestressed else 0
         slivers = flip_slivers(editor, candidates, positions)
-        if not delaunay + slivers:
+        settle = prestressed and (self._membrane_unsettled or delaunay + slivers > 0)
+        if not settle and not delaunay + slivers:
             return  # nothing edited: no version bump, nothing for a background loop to mirror
+        if settle:
+            editor.settle_membrane(self._springs_of(candidates))
+            self._membrane_unsettled = False
         report = editor.finish(positions=positions)
         self.totals["sliver_flips"] += slivers
         self.totals["delaunay_flips"] += delaunay
         self._apply(sim, report, positions)
         self.new_triangles.update(report.new_triangles)
         self.new_triangles.difference_update(report.deleted_triangles)
+
+    def _springs_of(self, triangles) -> set[int]:
+        """Slots of the springs on the edges of the live ``triangles`` (slots)."""
+        table, editor = self.model.triangle_table, self.editor
+        springs = set()
+        for t in triangles:
+            if table.alive[t]:
+                c = [int(v) for v in table.column("corners")[t]]
+                springs.update(editor.spring_between(c[k], c[(k + 1) % 3]) for k in range(3))
+        springs.discard(None)
+        return springs
 
     def _retry_holes(self, sim: CutHost) -> None:
         """Fill again the holes a finished incision left open (its fill could find no valid
@@ -435,6 +453,7 @@ class Cutter:
         self.unfilled_holes = sum(len(i.open_chains) for i in self.incisions)
         self.new_triangles.update(report.new_triangles)
         self.new_triangles.difference_update(report.deleted_triangles)
+        self._membrane_unsettled |= bool(report.new_triangles)
 
     def _apply(self, sim: CutHost, report, positions: NodePositions) -> None:
         """Update the explicit step's limit node by node (rows of the nodes whose springs or

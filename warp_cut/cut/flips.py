@@ -14,7 +14,8 @@ cut (long diagonals across two or three lips, fans), and its springs then hold t
 unevenly: the opening measured at the lips scattered by +-15 % with the event interval. So
 once an incision is complete the edges between two triangles the cut made are flipped until
 each is locally Delaunay in the rest shape (Lawson's algorithm), where the new pair faces the
-skin's side in the rest shape and at the current positions.
+skin's side in the rest shape and at the current positions and is no sliver where the nodes
+are now.
 
 Only triangles the cut made are flipped: the tissue's own mesh, the wound's border (one
 triangle per edge) and any hole still open are left as they are.
@@ -131,6 +132,15 @@ def flip_slivers(editor, candidates: set[int], positions, *, rounds: int = 3) ->
     return flips
 
 
+def _makes_a_sliver(quad: np.ndarray, new_local) -> bool:
+    """Whether the new pair (corner indices into ``quad``, the (4, 3) points i, j, k, l where
+    the nodes are now) has an angle under SLIVER_DEG and a smaller one than the old pair: a
+    flip that is right for the rest shape must not thin what the wound's opening has shaped
+    (nor undo a sliver flip, which would then be made again at every event)."""
+    new = triangle_min_angles(quad, new_local).min()
+    return bool(new < SLIVER_DEG and new < triangle_min_angles(quad, [[0, 1, 2], [1, 0, 3]]).min())
+
+
 def _non_delaunay_edges(table, candidates: set[int], rest: np.ndarray) -> list[tuple[int, int, int, int]]:
     """Edges between two live ``candidates`` whose opposite angles in the rest shape ``rest``
     (node_count, 3) [m] sum above 180 deg (+ ``DELAUNAY_TOLERANCE_DEG``), worst first, each as
@@ -159,7 +169,8 @@ def flip_to_delaunay(editor, candidates: set[int], rest: np.ndarray, positions, 
     each is locally Delaunay in the rest shape ``rest`` (node_count, 3) [m] (Lawson's
     algorithm; see the module doc), in an edit already begun on ``editor``. A flip is made only
     where both new triangles face the old pair's side in the rest shape and at the current
-    ``positions`` [m] (indexable by node arrays), and the other diagonal is not an edge yet.
+    ``positions`` [m] (indexable by node arrays), makes no sliver there (``_makes_a_sliver``)
+    and the other diagonal is not an edge yet.
     Repeats up to ``rounds`` passes; returns the flips made. The caller finishes the edit."""
     table = editor.model.triangle_table
     flips = 0
@@ -177,6 +188,8 @@ def flip_to_delaunay(editor, candidates: set[int], rest: np.ndarray, positions, 
             if angles[0, 2] + angles[1, 2] <= 180.0 + DELAUNAY_TOLERANCE_DEG:
                 continue
             if not all(_faces_as_before(x[[i, j, k, l]], new_local) for x in (rest, positions)):
+                continue
+            if _makes_a_sliver(positions[[i, j, k, l]], new_local):
                 continue
             _apply_flip(editor, candidates, t, u, new, positions)
             made += 1

@@ -325,8 +325,8 @@ class TopologyEditor:
             self.report.removed_fragments.extend(fragments)
         if model.stiffness_model == "material" or model.prestress_tension:
             changed = self._changed_springs()
-            self._refresh_membrane_stiffness(changed, self._rest_shape_lengths(changed) if model.prestress_tension
-                                             else model.spring_table.column("rest_length")[changed])
+            if model.stiffness_model == "material":
+                self._refresh_membrane_stiffness(changed, self._spring_lengths(changed))
             if model.prestress_tension:
                 self._prestress(changed)
         if model.material.bending_rigidity > 0:
@@ -410,15 +410,29 @@ class TopologyEditor:
         slots = (self.spring_between(i, j) for i, j in self._changed_edges() if model.active[i] and model.active[j])
         return sorted(slot for slot in slots if slot is not None)
 
-    def _refresh_membrane_stiffness(self, slots: list[int], lengths: np.ndarray) -> None:
-        """Give the springs ``slots`` (those whose triangles changed in this edit, new ones
-        included) their van Gelder stiffness from the triangles they now border and their
-        ``lengths`` [m] (k,) (``warp_cut.sim.stiffness``); one of length 0 keeps its own.
+    def settle_membrane(self, slots) -> None:
+        """Give the springs ``slots`` the sheet's modulus for the triangles they border now
+        (``_refresh_membrane_stiffness``) and, in a prestressed sheet, the rest lengths that
+        carry its tension with that stiffness: for the springs of a finished cut, whose
+        triangles are final (with the paper's constant K every new spring is K until then,
+        which is the lattice's modulus only on equilateral pairs). Part of an edit begun."""
+        slots = sorted(int(s) for s in slots if self.model.spring_table.alive[int(s)])
+        self._refresh_membrane_stiffness(slots, self._spring_lengths(slots))
+        if self.model.prestress_tension:
+            self._prestress(slots)
 
-        The sheet's modulus is ``membrane_modulus``: E t with material springs, and with the
-        paper's constant K (in a prestressed sheet only) the 2 K / sqrt(3) of the lattice, so
-        the re-meshed strip beside the wound is as compliant as the sheet around it whatever
-        its triangles' shapes (K itself on an equilateral triangle pair)."""
+    def _spring_lengths(self, slots: list[int]) -> np.ndarray:
+        """The lengths [m] (k,) van Gelder's stiffness takes: the rest shape's in a prestressed
+        sheet, else the springs' rest lengths."""
+        if self.model.prestress_tension:
+            return self._rest_shape_lengths(slots)
+        return self.model.spring_table.column("rest_length")[slots]
+
+    def _refresh_membrane_stiffness(self, slots: list[int], lengths: np.ndarray) -> None:
+        """Give the springs ``slots`` their van Gelder stiffness from the triangles they now
+        border and their ``lengths`` [m] (k,) (``warp_cut.sim.stiffness``) for the sheet's
+        modulus ``membrane_modulus`` (E t with material springs, 2 K / sqrt(3) with the
+        paper's constant K: K itself on an equilateral pair); one of length 0 keeps its own."""
         model = self.model
         areas, pairs = model.triangle_table.column("area"), model.spring_table.column("pairs")
         keep = np.asarray(lengths) > 0
