@@ -64,15 +64,15 @@ def test_no_flip_that_would_fold_a_non_convex_quad():
     assert flips == 0
 
 
-@settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1))
-def test_flips_on_a_jittered_sheet_never_lower_the_smallest_angle_nor_break_the_mesh(seed):
+def jittered_sheet(seed: int, n: int, jitter: float, z_noise: float):
+    """An n x n grid of 1 mm cells, interior nodes moved by up to ``jitter`` cells, heights up to
+    ``z_noise`` [m], each cell split on a random diagonal: (points, triangles), or a hypothesis
+    ``assume`` failure when a triangle is turned over."""
     rng = np.random.default_rng(seed)
-    n = 6
     grid = np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2).astype(float)
     inner = np.all((grid > 0) & (grid < n - 1), axis=1)
-    grid[inner] += rng.uniform(-0.35, 0.35, (inner.sum(), 2))
-    points = np.column_stack([grid * 1e-3, rng.uniform(-2e-5, 2e-5, len(grid))])
+    grid[inner] += rng.uniform(-jitter, jitter, (inner.sum(), 2))
+    points = np.column_stack([grid * 1e-3, rng.uniform(-z_noise, z_noise, len(grid))])
     tri = []
     for r in range(n - 1):
         for c in range(n - 1):
@@ -81,6 +81,13 @@ def test_flips_on_a_jittered_sheet_never_lower_the_smallest_angle_nor_break_the_
     tri = np.array(tri)
     d1, d2 = points[tri[:, 1], :2] - points[tri[:, 0], :2], points[tri[:, 2], :2] - points[tri[:, 0], :2]
     assume(np.all(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0] > 0))  # a valid sheet: no triangle turned over
+    return points, tri
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_flips_on_a_jittered_sheet_never_lower_the_smallest_angle_nor_break_the_mesh(seed):
+    points, tri = jittered_sheet(seed, 6, 0.35, 2e-5)
     model = TissueModel.from_triangles(points, tri, pinned="none")
     flat = points * [1, 1, 0]  # the area seen from above is kept by flips of convex quads
     area = triangle_areas(flat, model.triangles).sum()
@@ -151,20 +158,7 @@ def test_a_cocircular_quad_is_left_alone():
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1))
 def test_flips_to_delaunay_make_a_jittered_sheet_delaunay_and_keep_it_whole(seed):
-    rng = np.random.default_rng(seed)
-    n = 7
-    grid = np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2).astype(float)
-    inner = np.all((grid > 0) & (grid < n - 1), axis=1)
-    grid[inner] += rng.uniform(-0.4, 0.4, (inner.sum(), 2))
-    points = np.column_stack([grid * 1e-3, np.zeros(len(grid))])
-    tri = []
-    for r in range(n - 1):
-        for c in range(n - 1):
-            a, b, d, e = r * n + c, r * n + c + 1, (r + 1) * n + c, (r + 1) * n + c + 1
-            tri += [[a, b, e], [a, e, d]] if rng.random() < 0.5 else [[a, b, d], [b, e, d]]
-    tri = np.array(tri)
-    d1, d2 = points[tri[:, 1], :2] - points[tri[:, 0], :2], points[tri[:, 2], :2] - points[tri[:, 0], :2]
-    assume(np.all(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0] > 0))  # a valid sheet: no triangle turned over
+    points, tri = jittered_sheet(seed, 7, 0.4, 0.0)
     model = TissueModel.from_triangles(points, tri, pinned="none")
     area = triangle_areas(points, model.triangles).sum()
     before = triangle_min_angles(points, model.triangles).min()
