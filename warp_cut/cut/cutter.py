@@ -297,7 +297,7 @@ class Cutter:
         if not settle and not delaunay + slivers:
             return  # nothing edited: no version bump, nothing for a background loop to mirror
         if settle:
-            editor.settle_membrane(self._springs_of(candidates))
+            editor.settle_membrane(candidates)
             self._membrane_unsettled = False
         report = editor.finish(positions=positions)
         self.totals["sliver_flips"] += slivers
@@ -305,17 +305,6 @@ class Cutter:
         self._apply(sim, report, positions)
         self.new_triangles.update(report.new_triangles)
         self.new_triangles.difference_update(report.deleted_triangles)
-
-    def _springs_of(self, triangles) -> set[int]:
-        """Slots of the springs on the edges of the live ``triangles`` (slots)."""
-        table, editor = self.model.triangle_table, self.editor
-        springs = set()
-        for t in triangles:
-            if table.alive[t]:
-                c = [int(v) for v in table.column("corners")[t]]
-                springs.update(editor.spring_between(c[k], c[(k + 1) % 3]) for k in range(3))
-        springs.discard(None)
-        return springs
 
     def _retry_holes(self, sim: CutHost) -> None:
         """Fill again the holes a finished incision left open (its fill could find no valid

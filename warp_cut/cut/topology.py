@@ -108,6 +108,8 @@ class TopologyEditor:
             self._register_hinge(int(slot))
         self.report = EditReport()
         self._touched: set[int] = set()
+        self._settling: set[int] = set()
+        """Springs to take the sheet's modulus at ``finish`` (``settle_membrane``)."""
         self.hinge_nodes_changed: set[int] = set()
         """Nodes of the hinges the current edit made or deleted."""
 
@@ -134,6 +136,7 @@ class TopologyEditor:
         self.report = EditReport()
         self._touched = set()
         self.hinge_nodes_changed = set()
+        self._settling = set()
 
     def delete_triangles(self, slots) -> None:
         table = self.model.triangle_table
@@ -323,12 +326,7 @@ class TopologyEditor:
         if fragments:
             self.delete_nodes(fragments)
             self.report.removed_fragments.extend(fragments)
-        if model.stiffness_model == "material" or model.prestress_tension:
-            changed = self._changed_springs()
-            if model.stiffness_model == "material":
-                self._refresh_membrane_stiffness(changed, self._spring_lengths(changed))
-            if model.prestress_tension:
-                self._prestress(changed)
+        self._refresh_membrane()
         if model.material.bending_rigidity > 0:
             self._refresh_hinges(model.points if positions is None else positions)
         touched = np.array(sorted(v for v in self._touched if model.active[v]), dtype=np.int64)
@@ -341,14 +339,34 @@ class TopologyEditor:
         model.topology_version += 1
         return self.report
 
+    def _refresh_membrane(self) -> None:
+        """Stiffness and rest lengths of the springs this edit changed, and of those
+        ``settle_membrane`` named: van Gelder's stiffness with material springs (for the named
+        ones whatever the model), the prestress's rest lengths in a prestressed sheet."""
+        model = self.model
+        material, prestressed = model.stiffness_model == "material", bool(model.prestress_tension)
+        settling = {s for s in self._settling if model.spring_table.alive[s]}
+        if not (material or prestressed or settling):
+            return
+        changed = set(self._changed_springs()) if material or prestressed else set()
+        stiffened = sorted((changed if material else set()) | settling)
+        if stiffened:
+            self._refresh_membrane_stiffness(stiffened, self._spring_lengths(stiffened))
+        if prestressed:
+            self._prestress(sorted(changed | settling))
+
+    @staticmethod
+    def _edges_of(corners) -> set[tuple[int, int]]:
+        """Node pairs (i < j) of the edges of triangles given by their corners (3 nodes each)."""
+        return {tuple(sorted((int(c[k]), int(c[(k + 1) % 3])))) for c in corners for k in range(3)}
+
     def _changed_edges(self) -> set[tuple[int, int]]:
         """Node pairs (i < j) of the edges of the triangles this edit deleted or made (one made
         and deleted again in the edit is among the deleted ones: its slot no longer holds it)."""
         table = self.model.triangle_table
         corners = list(self.report.deleted_triangle_corners)
-        corners += [tuple(int(v) for v in table.column("corners")[t]) for t in self.report.new_triangles
-                    if table.alive[t]]
-        return {tuple(sorted((int(c[k]), int(c[(k + 1) % 3])))) for c in corners for k in range(3)}
+        corners += [table.column("corners")[t] for t in self.report.new_triangles if table.alive[t]]
+        return self._edges_of(corners)
 
     def _register_hinge(self, slot: int) -> None:
         a, b, k, l = (int(v) for v in self.model.hinge_table.column("nodes")[slot])
@@ -404,22 +422,26 @@ class TopologyEditor:
         self.model.hinge_table.kill([slot])
         self.report.deleted_hinges.append(slot)
 
-    def _changed_springs(self) -> list[int]:
-        """Slots of the live springs on the edges of the triangles this edit deleted or made."""
+    def _springs_on(self, edges) -> list[int]:
+        """Slots of the live springs on ``edges`` (node pairs)."""
         model = self.model
-        slots = (self.spring_between(i, j) for i, j in self._changed_edges() if model.active[i] and model.active[j])
+        slots = (self.spring_between(i, j) for i, j in edges if model.active[i] and model.active[j])
         return sorted(slot for slot in slots if slot is not None)
 
-    def settle_membrane(self, slots) -> None:
-        """Give the springs ``slots`` the sheet's modulus for the triangles they border now
-        (``_refresh_membrane_stiffness``) and, in a prestressed sheet, the rest lengths that
-        carry its tension with that stiffness: for the springs of a finished cut, whose
-        triangles are final (with the paper's constant K every new spring is K until then,
-        which is the lattice's modulus only on equilateral pairs). Part of an edit begun."""
-        slots = sorted(int(s) for s in slots if self.model.spring_table.alive[int(s)])
-        self._refresh_membrane_stiffness(slots, self._spring_lengths(slots))
-        if self.model.prestress_tension:
-            self._prestress(slots)
+    def _changed_springs(self) -> list[int]:
+        """Slots of the live springs on the edges of the triangles this edit deleted or made."""
+        return self._springs_on(self._changed_edges())
+
+    def settle_membrane(self, triangles) -> None:
+        """At ``finish``, give the springs on the edges of ``triangles`` (live slots) the
+        sheet's modulus for the triangles they border then (``_refresh_membrane_stiffness``)
+        and, in a prestressed sheet, the rest lengths that carry its tension with that
+        stiffness: for the springs of a finished cut, whose triangles are final (with the
+        paper's constant K every new spring is K until then, which is the lattice's modulus
+        only on equilateral pairs). Part of an edit begun."""
+        table = self.model.triangle_table
+        corners = [table.column("corners")[t] for t in triangles if table.alive[t]]
+        self._settling.update(self._springs_on(self._edges_of(corners)))
 
     def _spring_lengths(self, slots: list[int]) -> np.ndarray:
         """The lengths [m] (k,) van Gelder's stiffness takes: the rest shape's in a prestressed
