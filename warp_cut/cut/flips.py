@@ -28,7 +28,7 @@ import numpy as np
 from ..mesh.geometry import SLIVER_DEG, cross3, edge_keys, half_edges, triangle_angles, triangle_min_angles
 from .classes import SpringClass
 
-__all__ = ["flip_slivers", "flip_to_delaunay", "FACING_COS", "DELAUNAY_TOLERANCE_DEG"]
+__all__ = ["flip_slivers", "flip_to_delaunay", "FACING_COS", "DELAUNAY_TOLERANCE_DEG", "OLD_PAIR", "NEW_PAIR"]
 
 FACING_COS = 0.5
 """A flipped triangle's normal must lie within 60 degrees of the old pair's mean normal."""
@@ -36,6 +36,12 @@ FACING_COS = 0.5
 DELAUNAY_TOLERANCE_DEG = 1e-6
 """An edge is flipped to Delaunay when its two opposite angles sum above 180 deg by more than
 this (a cocircular quad, such as a rectangle split on either diagonal, is left alone)."""
+
+
+OLD_PAIR = ((0, 1, 2), (1, 0, 3))
+"""A quad i, j, k, l (local corners 0..3) split on its diagonal i - j: (i, j, k), (j, i, l)."""
+NEW_PAIR = ((0, 3, 2), (3, 1, 2))
+"""The same quad split on the other diagonal k - l: (i, l, k), (l, j, k)."""
 
 
 def _normal(x: np.ndarray) -> np.ndarray:
@@ -74,12 +80,17 @@ def _other_diagonal(editor, t: int, i: int, j: int, k: int) -> tuple | None:
     return u, l, [(i, l, k), (l, j, k)]
 
 
-def _faces_as_before(quad: np.ndarray, new_local) -> bool:
-    """Whether both new triangles (corner indices into ``quad``, the (4, 3) points i, j, k, l)
-    face within 60 deg of the old pair (i, j, k), (j, i, l)'s mean normal (``FACING_COS``)."""
-    facing = _normal(quad[[0, 1, 2]]) + _normal(quad[[1, 0, 3]])
+def _faces_as_before(quad: np.ndarray) -> bool:
+    """Whether both triangles of ``NEW_PAIR`` on ``quad`` (the (4, 3) points i, j, k, l) face
+    within 60 deg of ``OLD_PAIR``'s mean normal (``FACING_COS``)."""
+    facing = _normal(quad[list(OLD_PAIR[0])]) + _normal(quad[list(OLD_PAIR[1])])
     facing /= max(np.linalg.norm(facing), 1e-300)
-    return all(_normal(quad[list(tri)]) @ facing >= FACING_COS for tri in new_local)
+    return all(_normal(quad[list(tri)]) @ facing >= FACING_COS for tri in NEW_PAIR)
+
+
+def _smallest_angles(quad: np.ndarray) -> tuple[float, float]:
+    """Smallest angle [deg] of ``OLD_PAIR`` and of ``NEW_PAIR`` on ``quad`` (4, 3)."""
+    return float(triangle_min_angles(quad, OLD_PAIR).min()), float(triangle_min_angles(quad, NEW_PAIR).min())
 
 
 def _flip_across(editor, t: int, i: int, j: int, k: int, positions) -> tuple | None:
@@ -90,10 +101,10 @@ def _flip_across(editor, t: int, i: int, j: int, k: int, positions) -> tuple | N
         return None
     u, l, new = other
     quad = positions[[i, j, k, l]]
-    new_local = [(0, 3, 2), (3, 1, 2)]
-    if triangle_min_angles(quad, new_local).min() <= triangle_min_angles(quad, [[0, 1, 2], [1, 0, 3]]).min():
+    old_angle, new_angle = _smallest_angles(quad)
+    if new_angle <= old_angle:
         return None
-    return (u, new) if _faces_as_before(quad, new_local) else None
+    return (u, new) if _faces_as_before(quad) else None
 
 
 def _apply_flip(editor, candidates: set[int], t: int, u: int, new, positions) -> None:
@@ -132,13 +143,30 @@ def flip_slivers(editor, candidates: set[int], positions, *, rounds: int = 3) ->
     return flips
 
 
-def _makes_a_sliver(quad: np.ndarray, new_local) -> bool:
-    """Whether the new pair (corner indices into ``quad``, the (4, 3) points i, j, k, l where
-    the nodes are now) has an angle under SLIVER_DEG and a smaller one than the old pair: a
-    flip that is right for the rest shape must not thin what the wound's opening has shaped
-    (nor undo a sliver flip, which would then be made again at every event)."""
-    new = triangle_min_angles(quad, new_local).min()
-    return bool(new < SLIVER_DEG and new < triangle_min_angles(quad, [[0, 1, 2], [1, 0, 3]]).min())
+def _makes_a_sliver(quad: np.ndarray) -> bool:
+    """Whether ``NEW_PAIR`` on ``quad`` (the (4, 3) points i, j, k, l where the nodes are now)
+    has an angle under SLIVER_DEG and a smaller one than ``OLD_PAIR``: a flip that is right for
+    the rest shape must not thin what the wound's opening has shaped (nor undo a sliver flip,
+    which would then be made again at every event)."""
+    old_angle, new_angle = _smallest_angles(quad)
+    return new_angle < SLIVER_DEG and new_angle < old_angle
+
+
+def _delaunay_flip_across(editor, t: int, i: int, j: int, k: int, rest: np.ndarray, positions) -> tuple | None:
+    """The flip of t = (i, j, k) across its edge i -> j where that edge is not locally Delaunay
+    in the rest shape ``rest``: (the partner u, the two new triangles), or None (the partner
+    is the caller's to check; see ``flip_to_delaunay``)."""
+    other = _other_diagonal(editor, t, i, j, k)
+    if other is None:
+        return None
+    u, l, new = other
+    quad_rest, quad_now = rest[[i, j, k, l]], positions[[i, j, k, l]]
+    angles = triangle_angles(quad_rest, OLD_PAIR)  # the partner may be new since the edges were listed
+    if angles[0, 2] + angles[1, 2] <= 180.0 + DELAUNAY_TOLERANCE_DEG:
+        return None
+    if not (_faces_as_before(quad_rest) and _faces_as_before(quad_now)) or _makes_a_sliver(quad_now):
+        return None
+    return u, new
 
 
 def _non_delaunay_edges(table, candidates: set[int], rest: np.ndarray) -> list[tuple[int, int, int, int]]:
@@ -179,19 +207,10 @@ def flip_to_delaunay(editor, candidates: set[int], rest: np.ndarray, positions, 
         for t, i, j, k in _non_delaunay_edges(table, candidates, rest):
             if t not in candidates or not table.alive[t] or {i, j, k} != set(table.column("corners")[t].tolist()):
                 continue  # an earlier flip this pass took it
-            other = _other_diagonal(editor, t, i, j, k)
-            if other is None or other[0] not in candidates:
+            flip = _delaunay_flip_across(editor, t, i, j, k, rest, positions)
+            if flip is None or flip[0] not in candidates:
                 continue
-            u, l, new = other
-            new_local = [(0, 3, 2), (3, 1, 2)]
-            angles = triangle_angles(rest[[i, j, k, l]], [[0, 1, 2], [1, 0, 3]])  # u may be new this pass
-            if angles[0, 2] + angles[1, 2] <= 180.0 + DELAUNAY_TOLERANCE_DEG:
-                continue
-            if not all(_faces_as_before(x[[i, j, k, l]], new_local) for x in (rest, positions)):
-                continue
-            if _makes_a_sliver(positions[[i, j, k, l]], new_local):
-                continue
-            _apply_flip(editor, candidates, t, u, new, positions)
+            _apply_flip(editor, candidates, t, *flip, positions)
             made += 1
         flips += made
         if not made:
