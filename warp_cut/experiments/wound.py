@@ -235,9 +235,7 @@ def quasi_static_cut(scene: Scene, events: int = 114):
     for point in np.linspace(start, end, events + 1)[1:]:
         sim.cutter.extend_incision(sim, point)
     sim.cutter.end_incision(sim)
-    plate = static_equilibrium(model, positions=sim.positions, external=_loaded_border(model, scene),
-                               force_tolerance=STATIC_TOLERANCE, planar=True)
-    return sim.cutter, plate.positions
+    return sim.cutter, _settled(model, sim.positions, _loaded_border(model, scene)).positions
 
 
 # ------------------------------------------------------------------ report
@@ -280,15 +278,21 @@ def scene_cut_comparisons(scene: Scene) -> list[GapComparison]:
     model, label = sim.model, f"scene {scene.name}"
     out = [cutter_comparison(f"cutter, dynamic run to t = {sim.time:.3g} s", sim.cutter, sim.positions, scene,
                              label)]
-    pinned = static_equilibrium(model, positions=sim.positions, force_tolerance=STATIC_TOLERANCE, planar=True)
-    out.append(cutter_comparison("cutter, that run's cut sheet at static equilibrium, pinned border", sim.cutter,
-                                 pinned.positions, scene, f"{label}, largest net force {pinned.residual:.1e} N"))
-    loads = _loaded_border(model, scene)
-    plate = static_equilibrium(model, positions=sim.positions, external=loads, force_tolerance=STATIC_TOLERANCE,
-                               planar=True)
-    out.append(cutter_comparison("cutter, that run's cut sheet at static equilibrium, loaded border", sim.cutter,
-                                 plate.positions, scene, f"{label}, largest net force {plate.residual:.1e} N"))
+    for border in ("pinned", "loaded"):
+        loads = _loaded_border(model, scene) if border == "loaded" else None
+        static = _settled(model, sim.positions, loads)
+        out.append(cutter_comparison(f"cutter, that run's cut sheet at static equilibrium, {border} border",
+                                     sim.cutter, static.positions, scene,
+                                     f"{label}, largest net force {static.residual:.1e} N"))
     return out
+
+
+def _settled(model, positions, loads=None):
+    """The cut sheet's static equilibrium from ``positions`` (node_count, 3) [m], in its plane,
+    to ``STATIC_TOLERANCE``, with dead ``loads`` (node_count, 3) [N] on its border if given
+    (``_loaded_border``, which unpins it); a ``StaticResult``."""
+    return static_equilibrium(model, positions=positions, external=loads, force_tolerance=STATIC_TOLERANCE,
+                              planar=True)
 
 
 def _loaded_border(model, scene: Scene) -> np.ndarray:
