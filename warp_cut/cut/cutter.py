@@ -49,7 +49,7 @@ from .contact import BladeContact
 from .flips import flip_slivers, flip_to_delaunay
 from .incision import Incision
 from .lip_slots import lips_inside
-from .measures import coverage, incision_width, lip_deviation
+from .measures import gap_profile, incision_width, lip_deviation, path_coverage
 from .remesh import fill_hole
 from .surface import Crossing
 from .swept_volume import HitLists, SweptVolume
@@ -474,10 +474,7 @@ class Cutter:
     def coverage(self, positions: np.ndarray) -> float:
         """Fraction of the tool's path in the skin (the contact points of every event, from
         where the blade entered) that the opened incisions cover, within 0.5 spacing."""
-        covered = [coverage([inc], self.model, positions, np.asarray(inc.path), 0.5 * self.spacing)
-                   for inc in self.incisions if len(inc.path) > 1]
-        lengths = [inc.length for inc in self.incisions if len(inc.path) > 1]
-        return float(np.average(covered, weights=lengths)) if covered and sum(lengths) > 0 else float("nan")
+        return path_coverage(self.incisions, self.model, positions, 0.5 * self.spacing)
 
     def metrics(self, positions: np.ndarray) -> dict:
         """The cut's entries of metrics.json: ``cut``, ``incision`` and ``latency_ms``.
@@ -517,24 +514,9 @@ class Cutter:
     # ----------------------------------------------------------------- opening profile
     def gap_profile(self, positions: np.ndarray) -> dict:
         """The opening of every incision along its length: one row per interior station whose
-        two lip nodes are alive.
+        two lip nodes are alive (``warp_cut.cut.measures.gap_profile``).
 
         Args:
             positions: Current node positions [m], shape (node_count, 3).
-
-        Returns:
-            ``incision`` (k,) int: index into ``incisions``; ``arc_length_m`` (k,): the
-            station's arc length u along the incision's curve [m]; ``gap_m`` (k,): the distance
-            between the station's left and right lip nodes [m] (the ``pairs`` whose median is
-            ``incision_width``).
         """
-        active = self.model.active
-        rows = [(n, u, a, b) for n, inc in enumerate(self.incisions)
-                for u, a, b in zip(inc.station_u, inc.left, inc.right)
-                if a >= 0 and b >= 0 and active[a] and active[b]]
-        index = np.array([r[0] for r in rows], dtype=np.int64)
-        u = np.array([r[1] for r in rows], dtype=np.float64)
-        pairs = np.array([r[2:] for r in rows], dtype=np.int64).reshape(-1, 2)
-        x = np.asarray(positions, dtype=np.float64)
-        gap = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
-        return {"incision": index, "arc_length_m": u, "gap_m": gap}
+        return gap_profile(self.incisions, self.model, positions)

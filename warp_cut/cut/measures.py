@@ -1,5 +1,6 @@
-"""What a cut is judged by: the wound's width, how far its lips lie from the tool's path, and
-how much of the tool's path in the skin the opened incision covers.
+"""What a cut is judged by: the wound's width and its opening along each incision, how far its
+lips lie from the tool's path, and how much of the tool's path in the skin the opened incision
+covers.
 
 Every function takes the current node positions [m], shape (node_count, 3), the model and
 the incisions (``warp_cut.cut.incision.Incision``) of a Cutter.
@@ -12,7 +13,7 @@ import numpy as np
 from .classes import NodeClass
 from .incision import Incision, closest_on_polyline, polyline_distance
 
-__all__ = ["incision_width", "lip_deviation", "coverage"]
+__all__ = ["incision_width", "gap_profile", "lip_deviation", "coverage", "path_coverage"]
 
 
 def _live_pairs(inc: Incision, active: np.ndarray) -> np.ndarray:
@@ -26,6 +27,24 @@ def incision_width(incisions: list[Incision], model, positions: np.ndarray) -> f
     widths = [np.linalg.norm(positions[p[:, 0]] - positions[p[:, 1]], axis=1)
               for p in (_live_pairs(inc, model.active) for inc in incisions) if len(p)]
     return float(np.median(np.concatenate(widths))) if widths else float("nan")
+
+
+def gap_profile(incisions: list[Incision], model, positions: np.ndarray) -> dict:
+    """The opening of every incision along its length: one row per interior station whose two
+    lip nodes are alive. ``incision`` (k,) int: index into ``incisions``; ``arc_length_m`` (k,):
+    the station's arc length u along the incision's curve [m]; ``gap_m`` (k,): the distance
+    between the station's left and right lip nodes [m] (the pairs whose median is
+    ``incision_width``)."""
+    active = model.active
+    rows = [(n, u, a, b) for n, inc in enumerate(incisions)
+            for u, a, b in zip(inc.station_u, inc.left, inc.right)
+            if a >= 0 and b >= 0 and active[a] and active[b]]
+    index = np.array([r[0] for r in rows], dtype=np.int64)
+    u = np.array([r[1] for r in rows], dtype=np.float64)
+    pairs = np.array([r[2:] for r in rows], dtype=np.int64).reshape(-1, 2)
+    x = np.asarray(positions, dtype=np.float64)
+    gap = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
+    return {"incision": index, "arc_length_m": u, "gap_m": gap}
 
 
 def lip_deviation(incisions: list[Incision], model, positions: np.ndarray, *, in_plane: bool = True) -> float:
@@ -91,6 +110,16 @@ def coverage(incisions: list[Incision], model, positions: np.ndarray, trace: np.
     seg = np.linalg.norm(np.diff(trace, axis=0), axis=1)
     weight = np.concatenate([[0.0], seg]) * 0.5 + np.concatenate([seg, [0.0]]) * 0.5
     return float((weight * covered).sum() / weight.sum()) if weight.sum() > 0 else float("nan")
+
+
+def path_coverage(incisions: list[Incision], model, positions: np.ndarray, tolerance: float) -> float:
+    """Fraction of the tool's path in the skin (each incision's contact points, from where the
+    blade entered) that the opened incisions cover within ``tolerance`` [m] (``coverage`` of
+    each against its own path, weighted by its length); nan without a path."""
+    cut = [inc for inc in incisions if len(inc.path) > 1]
+    covered = [coverage([inc], model, positions, np.asarray(inc.path), tolerance) for inc in cut]
+    lengths = [inc.length for inc in cut]
+    return float(np.average(covered, weights=lengths)) if covered and sum(lengths) > 0 else float("nan")
 
 
 def _opened_stretches(inc: Incision, active: np.ndarray) -> list[tuple[float, float]]:
