@@ -389,23 +389,6 @@ def test_latency_has_one_entry_per_event_and_stage():
         assert 0.0 <= summary["p50_ms"] <= summary["p99_ms"] <= summary["max_ms"] == pytest.approx(v.max())
 
 
-def test_each_cut_spring_leaves_one_residual_link():
-    """SPEC section 1: a deleted spring whose two nodes survive leaves one link. The same cut
-    made in events 0.3 mm and 3 mm apart deletes the same springs, so it leaves the same links
-    (no pair twice, each a spring of the uncut patch: no link is carried on a resting cut)."""
-    links = []
-    for step in (0.0003, 0.003):
-        model, sim = patch_sim()
-        points, radius = stroke("between rows", model)
-        uncut = {tuple(p) for p in model.springs.tolist()}
-        cut_along(sim, points, radius=radius, step=step, check=False)
-        pairs = [tuple(sorted(p)) for p in model.links.tolist()]
-        assert sim.cutter.totals["carried_links"] == 0 and set(pairs) <= uncut
-        links.append(pairs)
-    assert len(set(links[0])) == len(links[0]), f"duplicate links: {len(links[0])} for {len(set(links[0]))} pairs"
-    assert sorted(links[0]) == sorted(links[1])
-
-
 def test_cut_from_border_to_border_severs_the_patch():
     """A cut across the whole (unpinned) patch leaves two pieces joined by no spring."""
     model, sim = patch_sim(size=(0.02, 0.012), pinned="none")

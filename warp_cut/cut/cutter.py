@@ -54,7 +54,7 @@ from .remesh import fill_hole
 from .surface import Crossing
 from .swept_volume import HitLists, SweptVolume
 from .topology import NodePositions, TopologyEditor
-from .wound_links import carry_links, open_links
+from .wound_links import align_links, carry_links, open_links
 
 __all__ = ["CutSettings", "Cutter", "CutHost", "STAGES"]
 
@@ -163,7 +163,7 @@ class Cutter:
         self.contact = BladeContact(model, self.editor, self._hits, self.spacing)
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = {"deleted_nodes": 0, "deleted_springs": 0, "residual_links": 0,
-                       "carried_links": 0, "lost_links": 0, "lip_nodes": 0, "lip_nodes_removed": 0,
+                       "carried_links": 0, "aligned_links": 0, "lost_links": 0, "lip_nodes": 0, "lip_nodes_removed": 0,
                        "new_springs": 0, "removed_fragments": 0, "sliver_flips": 0, "delaunay_flips": 0, "events": 0}
         self.new_triangles: set[int] = set()
         self._membrane_unsettled = False
@@ -250,6 +250,7 @@ class Cutter:
                                 lip_offset=s.lip_offset or 0.25 * sweep_radius,
                                 tolerance=s.tolerance or 0.1 * self.spacing)
         self.current.sweep_radius = float(sweep_radius)
+        self.current.first_own_spring = self.model.spring_table.count
         self.incisions.append(self.current)
         return self.current
 
@@ -427,6 +428,7 @@ class Cutter:
         reach = inc.sweep_radius + 1.5 * self.spacing
         self.totals["lost_links"] += carry_links(editor, inc, report, positions, reach)
         self.totals["lost_links"] += open_links(editor, inc, positions, reach)
+        self.totals["aligned_links"] += align_links(editor, inc, report.residual_links + report.carried_links)
         return report, result, positions
 
     def _count(self, report, result) -> None:
@@ -450,7 +452,7 @@ class Cutter:
         placed = np.array(report.new_nodes, dtype=np.int64)
         changed = set(self.editor.touched_nodes)
         link_pairs = self.model.link_table.column("pairs")
-        for slot in list(report.residual_links) + list(report.carried_links):
+        for slot in list(report.residual_links) + list(report.carried_links) + list(report.moved_links):
             changed.update(int(v) for v in link_pairs[slot])
         changed |= {int(v) for v in report.deleted_nodes}
         self.element_rates.update(changed, self.editor)

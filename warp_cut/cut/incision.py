@@ -134,6 +134,10 @@ class Incision:
         self.pending_links: list[tuple[int, int, float, float]] = []
         """Springs the cut separated whose residual links act once the wound is open there:
         (node i, node j, rest length [m], arc length u [m] where they crossed the cut)."""
+        self.first_own_spring = 0
+        """Spring slots from this one on were made while this incision cut (slots are never
+        reused): the tissue it re-closed ahead of its tip, whose springs leave no residual
+        link when it cuts them again (the springs they replaced already did)."""
         self.reached_border = False
         """True once the cut has opened the skin to the tissue's outer border (a notch)."""
 

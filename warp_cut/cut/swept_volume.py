@@ -68,10 +68,12 @@ class SweptVolume:
         """Begin an edit and delete what the capsule a-b [m] (radius ``inc.sweep_radius``)
         touches: the nodes inside and the springs through it, among the live nodes ``near`` it
         (k,) and their springs. A deleted spring that crosses the cut (its nodes on either side
-        of the line a-b in the skin, whose outward normal is ``normal``) and whose nodes
-        survive becomes a residual-stress link; one with both nodes on one side, grazed by the
-        capsule, joins what the cut does not separate and makes none. The links act once the
-        wound is open where they crossed (``wound_links.open_links``): under the tool there are
+        of the line a-b in the skin, whose outward normal is ``normal``) becomes a residual-stress
+        link, a node the capsule deletes replaced by the lip that takes its place; one with both
+        nodes on one side, grazed by the capsule, joins what the cut does not separate and makes
+        none, and so does one this incision made itself (tissue it re-closed ahead of its tip:
+        the springs it stands for left their links already). The links act once the wound is
+        open where they crossed (``wound_links.open_links``): under the tool there are
         no lips yet, and links there would pull the sides together across the hole the tool is
         in. ``sim`` is the CutHost (its device positions and mirror), ``positions`` its node
         positions [m] (node_count, 3)."""
@@ -82,14 +84,35 @@ class SweptVolume:
         own_lips = {n for n in inc.left + inc.right + [inc.start_node] if n >= 0}
         pairs = model.spring_table.column("pairs")
         crossing = separated_by(positions, pairs[springs], a, b, normal)
-        cut = [sl for sl, k in zip(springs, crossing) if k and not ({int(v) for v in pairs[sl]} & own_lips)]
-        separated = []
+        cut = [sl for sl, k in zip(springs, crossing)
+               if k and sl < inc.first_own_spring and not ({int(v) for v in pairs[sl]} & own_lips)]
+        separated = self._losing_nodes(cut, doomed)
         editor.delete_springs(cut, residual=True, doomed_nodes=doomed, pending=separated)
         known = {frozenset(link[:2]) for link in inc.pending_links}
         inc.pending_links += [(i, j, rest, inc.length) for _, i, j, rest in separated
                               if frozenset((i, j)) not in known]  # tissue re-closed and cut again
         editor.delete_springs(springs, residual=False)  # grazed on one side, or at own lips
         editor.delete_nodes(sorted(doomed))
+
+    def _losing_nodes(self, springs, doomed: set[int]) -> list[tuple[int, int, int, float]]:
+        """(slot, i, j, rest length [m]) of the separated ``springs`` that lose one node or both
+        to the cut (in ``doomed``): the tissue on both sides lives on, so their residual links
+        are made too, each lost node replaced by the lip that takes its place on its side
+        (``wound_links.open_links``). Without them a coarse event, whose capsule swallows the
+        nodes along the line, would leave that stretch of the wound with fewer links than fine
+        events leave it, and the wound's width would depend on the event interval.
+        None in the prestress model."""
+        model = self.model
+        if model.material.residual_stress_model != "links":
+            return []
+        table = model.spring_table
+        pairs, rest = table.column("pairs"), table.column("rest_length")
+        out = []
+        for slot in springs:
+            i, j = (int(v) for v in pairs[slot])
+            if table.alive[slot] and (i in doomed or j in doomed) and model.active[i] and model.active[j]:
+                out.append((int(slot), i, j, float(rest[slot])))
+        return out
 
     def _hits_of(self, sim, near: np.ndarray, a, b, r: float) -> tuple[np.ndarray, np.ndarray]:
         """(nodes (k,), springs (m,)) of the capsule a-b of radius ``r`` [m]: the live nodes of

@@ -72,6 +72,8 @@ class EditReport:
     deleted_links: list = field(default_factory=list)
     carried_links: list = field(default_factory=list)
     """Residual links re-made between a surviving node and the node that took a deleted one's place."""
+    moved_links: list = field(default_factory=list)
+    """Residual links whose end nodes were changed (``TopologyEditor.move_link``)."""
     orphaned_links: list = field(default_factory=list)
     """(surviving node, deleted node, force [N], smoothing [m]) of links that lost a node."""
     removed_fragments: list = field(default_factory=list)
@@ -182,14 +184,15 @@ class TopologyEditor:
             self.report.deleted_springs.append(slot)
         self.make_links(link_pairs, link_rest)
 
-    def make_links(self, pairs, rest_lengths) -> None:
+    def make_links(self, pairs, rest_lengths, *, once_per_pair: bool = True) -> None:
         """Residual-stress links between node pairs (l, 2) for springs of rest lengths (l,) [m]
-        (``TissueModel.add_residual_links``: sigma_r x thickness x rest length); a pair already
-        joined by a link gets no second one."""
+        (``TissueModel.add_residual_links``: sigma_r x thickness x rest length); with
+        ``once_per_pair`` a pair already joined by a link gets no second one (a spring's own
+        pair), without it each link is made (links of several springs carried to one pair)."""
         fresh, seen = [], set()
-        for (i, j), rest in zip(pairs, rest_lengths):  # one link per node pair
+        for (i, j), rest in zip(pairs, rest_lengths):
             key = frozenset((int(i), int(j)))
-            if key not in seen and not self.node_links[int(i)] & self.node_links[int(j)]:
+            if not once_per_pair or (key not in seen and not self.node_links[int(i)] & self.node_links[int(j)]):
                 seen.add(key)
                 fresh.append(((int(i), int(j)), rest))
         if not fresh:
@@ -265,6 +268,18 @@ class TopologyEditor:
         self._touched.update((int(i), int(j)))
         self.report.carried_links.append(slot)
         return slot
+
+    def move_link(self, slot: int, i: int, j: int) -> None:
+        """Make residual link ``slot`` join nodes i and j instead (same force and smoothing)."""
+        table = self.model.link_table
+        for v in table.column("pairs")[slot]:
+            self.node_links[int(v)].discard(slot)
+            self._touched.add(int(v))  # its stable-step row changes
+        table.set("pairs", [slot], np.array([[i, j]]))
+        self.node_links[i].add(slot)
+        self.node_links[j].add(slot)
+        self._touched.update((int(i), int(j)))
+        self.report.moved_links.append(slot)
 
     def add_spring(self, i: int, j: int, positions: np.ndarray, spring_class: int) -> int:
         """A spring between i and j with rest length from ``positions`` (node_count, 3) [m];

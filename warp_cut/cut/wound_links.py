@@ -4,7 +4,9 @@ later edit takes one of their nodes.
 A spring the cut separates (its two nodes on either side of the cut line, ``separated_by``)
 leaves a residual-stress link once the wound is open where it crossed (``open_links``); a link
 whose node a later event deletes is carried to the node that takes that node's place on the
-same side of the incision (``carry_links``), and is lost only when that side is gone.
+same side of the incision (``carry_links``), and is lost only when that side is gone. A link
+made or carried between the lips of two different stations is moved to one station's lip pair
+(``align_links``): the stress it carries acts across the wound, not along it.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from ..mesh.geometry import cross3
 from .incision import Incision
 from .topology import TopologyEditor
 
-__all__ = ["separated_by", "open_links", "carry_links"]
+__all__ = ["separated_by", "open_links", "carry_links", "align_links"]
 
 
 def separated_by(x: np.ndarray, pairs: np.ndarray, a, b, normal) -> np.ndarray:
@@ -64,28 +66,68 @@ def _live_lips(inc: Incision, active: np.ndarray) -> list[int]:
     return [v for v in inc.left + inc.right if v >= 0 and active[v]]
 
 
+def _crossing(inc: Incision, positions, i: int, j: int) -> tuple[float, np.ndarray]:
+    """(arc length u [m] where the spring i-j crossed the incision, the sides (2,) of i and j):
+    u of the spring's midpoint, its nodes' last positions [m] (a deleted node's included)."""
+    x = np.asarray(positions[np.array([i, j])], dtype=np.float64)
+    u, sides, _ = inc.project(np.vstack([x, x.mean(axis=0)]))
+    return float(u[2]), sides[:2]
+
+
+class _LipsAlong:
+    """The live lips of an incision's stations, found by arc length and side."""
+
+    def __init__(self, inc: Incision, active: np.ndarray, reach: float):
+        self.u = np.asarray(inc.station_u, dtype=np.float64)
+        self.reach = reach
+        self.nodes = {side: np.array([v if v >= 0 and active[v] else -1 for v in lips], dtype=np.int64)
+                      for side, lips in ((1, inc.left), (-1, inc.right))}
+
+    def at(self, u: float, side: int) -> int:
+        """The lip on ``side`` (+1 left, -1 right) of the live station nearest arc length u [m],
+        within ``reach`` [m] of it; -1 if none."""
+        nodes = self.nodes[int(side)]
+        if not len(nodes):
+            return -1
+        dist = np.where(nodes >= 0, np.abs(self.u - u), np.inf)
+        k = int(np.argmin(dist))
+        return int(nodes[k]) if dist[k] <= self.reach else -1
+
+
 def open_links(editor: TopologyEditor, inc: Incision, positions, reach: float) -> int:
     """Make the residual links of the springs the cut separated behind the slit's tip (all of
-    them once the tool has gone). A node a later event deleted is replaced by the lip that took
-    its place on its side, within ``reach`` [m]; the link is lost only if there is none.
-    Returns the links lost."""
+    them once the tool has gone). A node the cut deleted is replaced by the lip on its side at
+    the station nearest where the spring crossed the incision, within ``reach`` [m] along it
+    (so the links of a stretch of wound pull on that stretch's lips, not on the newest ones);
+    while the tool cuts, a link with no such lip
+    yet waits for the next event, and once it has gone the link is lost if there is none. Each
+    spring's link is made, several on one lip pair if need be: the residual force across the
+    wound is the released stress of every spring the cut separated, however coarse its
+    events. Returns the links lost."""
     active = editor.model.active
     tip_u = inc.tip_u(active) if inc.open_end else np.inf
     due = [link for link in inc.pending_links if link[3] <= tip_u]
     if not due:
         return 0
     inc.pending_links = [link for link in inc.pending_links if link[3] > tip_u]
-    places = _Places(inc, positions, _live_lips(inc, active), [], reach)
-    pairs, rests, lost = [], [], 0
-    for i, j, rest, _ in due:
-        a = i if active[i] else places.taking(positions[i], exclude={j})
-        b = j if active[j] else places.taking(positions[j], exclude={a})
+    lips = _LipsAlong(inc, active, reach)
+    own, carried, lost = ([], []), ([], []), 0
+    for link in due:
+        i, j, rest, _ = link
+        u, sides = _crossing(inc, positions, i, j)
+        a = i if active[i] else lips.at(u, sides[0])
+        b = j if active[j] else lips.at(u, sides[1])
+        if (a < 0 or b < 0) and inc.open_end:
+            inc.pending_links.append(link)  # no lip there yet: tried again at the next event
+            continue
         if a < 0 or b < 0 or a == b:
             lost += 1
             continue
-        pairs.append((a, b))
-        rests.append(rest)
-    editor.make_links(pairs, rests)
+        into = own if (a, b) == (i, j) else carried
+        into[0].append((a, b))
+        into[1].append(rest)
+    editor.make_links(*own)
+    editor.make_links(*carried, once_per_pair=False)  # several springs' links may share lips
     return lost
 
 
@@ -115,3 +157,54 @@ def carry_links(editor: TopologyEditor, inc: Incision, report, positions, reach:
             continue
         editor.add_link(keep if b < 0 else b, a, force, smoothing)
     return lost
+
+
+def _stations_of(inc: Incision, active: np.ndarray) -> dict[int, int]:
+    """Live interior lip node -> its station index."""
+    return {v: k for side in (inc.left, inc.right) for k, v in enumerate(side) if v >= 0 and active[v]}
+
+
+def align_links(editor: TopologyEditor, inc: Incision, slots) -> int:
+    """Move each of the residual links ``slots`` that joins the left lip of one station to the
+    right lip of another onto the lip pair of one station between them (both lips alive, the
+    fewest links on it, then the nearest the middle), keeping its force and smoothing. With
+    coarse cut events the links a re-closed stretch of the slit leaves, or carries to the lips
+    that replace its nodes, run diagonally between neighbouring stations: their pull along the
+    wound drags the lips sideways and makes the wound's width depend on the event interval.
+    Returns the links moved."""
+    model = editor.model
+    table = model.link_table
+    station = _stations_of(inc, model.active)
+    left = set(inc.left)
+    pairs = table.column("pairs")
+    moved = 0
+    for slot in sorted({int(s) for s in slots}):
+        if not table.alive[slot]:
+            continue
+        i, j = (int(v) for v in pairs[slot])
+        if i not in station or j not in station or (i in left) == (j in left):
+            continue
+        lo, hi = sorted((station[i], station[j]))
+        if lo == hi:
+            continue
+        k = _least_loaded_pair(editor, inc, range(lo, hi + 1), 0.5 * (lo + hi))
+        if k < 0:
+            continue
+        editor.move_link(slot, inc.left[k], inc.right[k])
+        moved += 1
+    return moved
+
+
+def _least_loaded_pair(editor: TopologyEditor, inc: Incision, stations, middle: float) -> int:
+    """Of ``stations`` whose two lips live, the one whose lip pair carries the fewest links
+    (ties: nearest ``middle``); -1 if none."""
+    active = editor.model.active
+    best, best_key = -1, None
+    for k in stations:
+        a, b = inc.left[k], inc.right[k]
+        if a < 0 or b < 0 or not (active[a] and active[b]):
+            continue
+        key = (len(editor.node_links[a] & editor.node_links[b]), abs(k - middle))
+        if best_key is None or key < best_key:
+            best, best_key = k, key
+    return best
