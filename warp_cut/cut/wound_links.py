@@ -66,12 +66,16 @@ def _live_lips(inc: Incision, active: np.ndarray) -> list[int]:
     return [v for v in inc.left + inc.right if v >= 0 and active[v]]
 
 
-def _crossing(inc: Incision, positions, i: int, j: int) -> tuple[float, np.ndarray]:
-    """(arc length u [m] where the spring i-j crossed the incision, the sides (2,) of i and j):
-    u of the spring's midpoint, its nodes' last positions [m] (a deleted node's included)."""
-    x = np.asarray(positions[np.array([i, j])], dtype=np.float64)
-    u, sides, _ = inc.project(np.vstack([x, x.mean(axis=0)]))
-    return float(u[2]), sides[:2]
+def _crossings(inc: Incision, positions, links) -> tuple[np.ndarray, np.ndarray]:
+    """(arc length u (l,) [m] where each pending link's spring crossed the incision, the sides
+    (l, 2) of its two nodes): u of the spring's midpoint, from its nodes' last positions [m] (a
+    deleted node's included)."""
+    if not links:
+        return np.zeros(0), np.zeros((0, 2), dtype=np.int64)
+    pairs = np.array([link[:2] for link in links], dtype=np.int64)
+    x = np.asarray(positions[pairs.reshape(-1)], dtype=np.float64).reshape(-1, 2, 3)
+    u, sides, _ = inc.project(np.concatenate([x.mean(axis=1), x.reshape(-1, 3)]))
+    return u[: len(links)], sides[len(links):].reshape(-1, 2)
 
 
 class _LipsAlong:
@@ -93,30 +97,38 @@ class _LipsAlong:
         k = int(np.argmin(dist))
         return int(nodes[k]) if dist[k] <= self.reach else -1
 
+    def nearest_station(self, u: float) -> int:
+        """Index of the station nearest arc length u [m] (len(stations) for u = inf, -1 with no
+        station)."""
+        if not len(self.u):
+            return -1
+        return len(self.u) if np.isinf(u) else int(np.argmin(np.abs(self.u - u)))
+
 
 def open_links(editor: TopologyEditor, inc: Incision, positions, reach: float) -> int:
-    """Make the residual links of the springs the cut separated behind the slit's tip (all of
-    them once the tool has gone). A node the cut deleted is replaced by the lip on its side at
-    the station nearest where the spring crossed the incision, within ``reach`` [m] along it
-    (so the links of a stretch of wound pull on that stretch's lips, not on the newest ones);
-    while the tool cuts, a link with no such lip
-    yet waits for the next event, and once it has gone the link is lost if there is none. Each
-    spring's link is made, several on one lip pair if need be: the residual force across the
-    wound is the released stress of every spring the cut separated, however coarse its
+    """Make the residual links of the springs the cut separated, each once the slit is open
+    past the station nearest where the spring crossed the incision (all of them once the tool
+    has gone): the slit's tip pair, next to the tool, takes none while the tool cuts. A node
+    the cut deleted is replaced by the lip on its side at that station, within ``reach`` [m]
+    along the incision, so a stretch of wound's links pull on that stretch's lips. A link with
+    no such lip waits for the next event while the tool cuts, and is lost once it has gone.
+    Each spring's link is made, several on one lip pair if need be: the residual force across
+    the wound is the released stress of every spring the cut separated, however coarse its
     events. Returns the links lost."""
     active = editor.model.active
     tip_u = inc.tip_u(active) if inc.open_end else np.inf
-    due = [link for link in inc.pending_links if link[3] <= tip_u]
-    if not due:
-        return 0
-    inc.pending_links = [link for link in inc.pending_links if link[3] > tip_u]
     lips = _LipsAlong(inc, active, reach)
+    pending, inc.pending_links = inc.pending_links, []
+    crossing_u, sides = _crossings(inc, positions, pending)
+    tip = lips.nearest_station(tip_u)
     own, carried, lost = ([], []), ([], []), 0
-    for link in due:
-        i, j, rest, _ = link
-        u, sides = _crossing(inc, positions, i, j)
-        a = i if active[i] else lips.at(u, sides[0])
-        b = j if active[j] else lips.at(u, sides[1])
+    for link, u, (side_i, side_j) in zip(pending, crossing_u, sides):
+        i, j, rest, cut_at = link
+        if inc.open_end and (cut_at > tip_u or lips.nearest_station(u) >= tip):
+            inc.pending_links.append(link)  # the slit is not open past it yet
+            continue
+        a = i if active[i] else lips.at(u, side_i)
+        b = j if active[j] else lips.at(u, side_j)
         if (a < 0 or b < 0) and inc.open_end:
             inc.pending_links.append(link)  # no lip there yet: tried again at the next event
             continue
