@@ -6,7 +6,7 @@ from matplotlib.image import imread
 from warp_cut import Material, TissueModel
 from warp_cut.cli import main
 from warp_cut.cut.classes import NODE_CLASS_COLORS, NodeClass
-from warp_cut.io.plots import RunPicture, plot_preview, write_run_plots
+from warp_cut.io.plots import CURVED_DEG, RunPicture, _view, plot_preview, write_run_plots
 
 
 def _has_color(img, rgb, tol=0.03):
@@ -48,3 +48,22 @@ def test_width_plot_when_the_column_exists(tmp_path):
     assert [p.name for p in written] == ["tool_force.png", "width.png"]
     img = imread(tmp_path / "width.png")
     assert img[:, :, :3].std() > 0.05
+
+
+def test_the_view_follows_the_surface_not_a_few_tilted_triangles():
+    """A flat 10 x 10 grid with its corner raised (two triangles tilted by ~60 degrees, 1 % of
+    the area) is seen from above; bent into a half cylinder it is seen in perspective."""
+    g = np.linspace(0.0, 0.01, 11)
+    xx, yy = np.meshgrid(g, g)
+    flat = np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], axis=1)
+    quads = [(i * 11 + j, i * 11 + j + 1, (i + 1) * 11 + j + 1, (i + 1) * 11 + j) for i in range(10) for j in range(10)]
+    tri = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    tilted = flat.copy()
+    tilted[0, 2] = 0.001 * np.tan(np.radians(60.0))  # the corner raised: its two triangles tilt
+    def picture(x):
+        return RunPicture(positions=x, triangles=tri, active=np.ones(len(x), bool), node_class=np.zeros(len(x), int))
+    normal, turn = _view(picture(tilted))
+    assert np.allclose(normal, [0, 0, 1], atol=0.05) and turn < CURVED_DEG
+    phi = np.pi * flat[:, 0] / 0.01
+    bent = np.stack([0.01 / np.pi * np.cos(phi), flat[:, 1], 0.01 / np.pi * np.sin(phi)], axis=1)
+    assert _view(picture(bent))[1] > CURVED_DEG

@@ -110,9 +110,14 @@ CURVED_DEG = 25.0
 """A mesh whose triangles turn more than this [deg] from their mean normal is drawn in a
 perspective view; a flatter one is drawn as seen along its mean normal."""
 
+TURN_AREA_FRACTION = 0.98
+"""The turn that decides the view is the one this fraction of the surface's area stays within:
+a few small triangles tilted at a wound's lips do not make a flat patch curved."""
+
 
 def _view(picture: RunPicture):
-    """(unit mean normal of the live surface, its largest angle to a triangle's normal [deg])."""
+    """(unit mean normal of the live surface, the angle [deg] to it within which its triangles'
+    normals lie over ``TURN_AREA_FRACTION`` of its area)."""
     x = np.asarray(picture.positions, dtype=np.float64)
     tri = np.asarray(picture.triangles, dtype=np.int64).reshape(-1, 3)
     if not len(tri):
@@ -120,8 +125,12 @@ def _view(picture: RunPicture):
     n = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])
     mean = n.sum(axis=0)
     mean = mean / np.linalg.norm(mean) if np.linalg.norm(mean) > 0 else np.array([0.0, 0.0, 1.0])
-    unit = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    return mean, float(np.degrees(np.arccos(np.clip((unit @ mean).min(), -1.0, 1.0))))
+    area = np.linalg.norm(n, axis=1)
+    turn = np.degrees(np.arccos(np.clip((n @ mean) / np.maximum(area, 1e-300), -1.0, 1.0)))
+    order = np.argsort(turn)
+    covered = np.cumsum(area[order]) / max(area.sum(), 1e-300)
+    k = min(int(np.searchsorted(covered, TURN_AREA_FRACTION)), len(order) - 1)
+    return mean, float(turn[order[k]])
 
 
 def _plane_axes(normal: np.ndarray) -> np.ndarray:
