@@ -112,6 +112,32 @@ def test_a_node_the_cut_deleted_is_replaced_by_the_lip_at_the_station_where_the_
     editor.finish()
 
 
+def test_the_slit_tip_pair_takes_no_carried_link_while_the_tool_cuts():
+    """While the tool cuts, a link whose nodes the cut deleted and whose spring crossed at the
+    slit's tip station (its newest pair, next to the tool) waits; one crossing at the station
+    behind is made there, and so is a link whose two nodes survived, at the tip too. Once the
+    tool has gone the waiting one goes to the tip pair."""
+    model, editor = patch()
+    inc, left, right = straight_incision(model, 0.0, lip_offset=0.0026)
+    inc.open_end = True
+    x = model.points
+    def node(p):
+        return int(np.argmin(np.linalg.norm(x - p, axis=1)))
+    at_tip = (node([0.0025, 0.0009, 0.0]), node([0.0015, -0.0009, 0.0]))  # crosses at u = 7 mm
+    behind = (node([0.0005, 0.0009, 0.0]), node([-0.0005, -0.0009, 0.0]))  # u = 5 mm
+    alive = (node([0.0045, 0.0009, 0.0]), node([0.0035, -0.0009, 0.0]))  # u = 9 mm, both live
+    editor.begin()
+    editor.delete_nodes(list(at_tip + behind))
+    inc.pending_links = [(*at_tip, SPACING, 0.0), (*behind, SPACING, 0.0), (*alive, SPACING, 0.0)]
+    assert open_links(editor, inc, x, reach=0.0015) == 0
+    assert inc.pending_links == [(*at_tip, SPACING, 0.0)]
+    assert sorted(model.links.tolist()) == sorted([[left[1], right[1]], list(alive)])
+    inc.open_end = False
+    assert open_links(editor, inc, x, reach=0.0015) == 0 and inc.pending_links == []
+    assert model.links.tolist()[-1] == [left[2], right[2]]
+    editor.finish()
+
+
 def cut_between_rows(step: float, radius: float):
     """A 12 mm cut between two rows of a 20 mm patch (the rows 0.87 mm either side of the line:
     a tool of ``radius`` [m] over that deletes them), extended every ``step`` [m]; returns

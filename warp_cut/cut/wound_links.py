@@ -106,15 +106,17 @@ class _LipsAlong:
 
 
 def open_links(editor: TopologyEditor, inc: Incision, positions, reach: float) -> int:
-    """Make the residual links of the springs the cut separated, each once the slit is open
-    past the station nearest where the spring crossed the incision (all of them once the tool
-    has gone): the slit's tip pair, next to the tool, takes none while the tool cuts. A node
-    the cut deleted is replaced by the lip on its side at that station, within ``reach`` [m]
-    along the incision, so a stretch of wound's links pull on that stretch's lips. A link with
-    no such lip waits for the next event while the tool cuts, and is lost once it has gone.
-    Each spring's link is made, several on one lip pair if need be: the residual force across
-    the wound is the released stress of every spring the cut separated, however coarse its
-    events. Returns the links lost."""
+    """Make the residual links of the springs the cut separated (all of them once the tool has
+    gone). A link between two nodes that survived acts once the slit's tip has passed where
+    the spring was cut. A node the cut deleted is replaced by the lip on its side at the
+    station nearest where the spring crossed the incision, within ``reach`` [m] along it, so
+    a stretch of wound's links pull on that stretch's lips; such a link waits until the slit
+    is open past that station: the tip pair, next to the tool, takes none while the tool cuts
+    (several links there pulled its lips into the next capsule). A link with no such lip
+    waits for the next event while the tool cuts, and is lost once it has gone. Each spring's
+    link is made, several on one lip pair if need be: the residual force across the wound is
+    the released stress of every spring the cut separated, however coarse its events. Returns
+    the links lost."""
     active = editor.model.active
     tip_u = inc.tip_u(active) if inc.open_end else np.inf
     lips = _LipsAlong(inc, active, reach)
@@ -124,7 +126,8 @@ def open_links(editor: TopologyEditor, inc: Incision, positions, reach: float) -
     own, carried, lost = ([], []), ([], []), 0
     for link, u, (side_i, side_j) in zip(pending, crossing_u, sides):
         i, j, rest, cut_at = link
-        if inc.open_end and (cut_at > tip_u or lips.nearest_station(u) >= tip):
+        replaced = not (active[i] and active[j])
+        if inc.open_end and (cut_at > tip_u or (replaced and lips.nearest_station(u) >= tip)):
             inc.pending_links.append(link)  # the slit is not open past it yet
             continue
         a = i if active[i] else lips.at(u, side_i)
