@@ -9,7 +9,7 @@ from warp_cut import Material, Simulator, TissueModel
 from warp_cut.cut.cutter import CutSettings
 from warp_cut.cut.incision import Incision
 from warp_cut.cut.topology import TopologyEditor
-from warp_cut.cut.wound_links import align_links, open_links
+from warp_cut.cut.wound_links import align_links, carry_links, open_links
 
 SPACING = 0.002
 MATERIAL = Material(density=1000.0, thickness=1e-3, youngs_modulus=2e4, residual_strain=0.1)
@@ -136,6 +136,35 @@ def test_the_slit_tip_pair_takes_no_carried_link_while_the_tool_cuts():
     assert open_links(editor, inc, x, reach=0.0015) == 0 and inc.pending_links == []
     assert model.links.tolist()[-1] == [left[2], right[2]]
     editor.finish()
+
+
+def test_a_link_whose_two_nodes_an_edit_deletes_is_carried_to_a_lip_on_each_side():
+    """A link across the incision whose two nodes one edit deletes (the tip re-opened, a
+    capsule over re-closed tissue) goes to the nearest lip on each side, force and smoothing
+    kept; one whose two nodes lay on one side of the incision is lost (counted)."""
+    model, editor = patch()
+    inc, left, right = straight_incision(model, 0.0, lip_offset=0.0026)
+    x = model.points
+    def node(p):
+        return int(np.argmin(np.linalg.norm(x - p, axis=1)))
+    across = (node([0.0005, 0.0009, 0.0]), node([-0.0005, -0.0009, 0.0]))
+    one_side = (node([0.0025, 0.0009, 0.0]), node([0.0045, 0.0009, 0.0]))
+    editor.begin()
+    editor.make_links([across, one_side], [SPACING, SPACING])
+    force = model.link_force.copy()
+    report = editor.finish()
+    editor.begin()
+    editor.delete_nodes(list(across + one_side))
+    report = editor.finish()
+    assert sorted(report.severed_links)[0][:2] in (across, across[::-1]) and len(report.severed_links) == 2
+    lost = carry_links(editor, inc, report, x, reach=0.004)
+    assert lost == 1 and model.link_count == 1
+    for end, lips in zip(sorted(model.links[0], key=lambda v: v not in left), (left, right)):
+        assert end in lips  # a lip on each side, one nearest where the deleted node was
+        gone = across[0] if lips is left else across[1]
+        d = np.linalg.norm(x[lips] - x[gone], axis=1)
+        assert np.linalg.norm(x[end] - x[gone]) == pytest.approx(d.min())
+    assert model.link_force[0] == pytest.approx(force[0])
 
 
 def cut_between_rows(step: float, radius: float):

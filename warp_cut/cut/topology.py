@@ -76,6 +76,8 @@ class EditReport:
     """Residual links whose end nodes were changed (``TopologyEditor.move_link``)."""
     orphaned_links: list = field(default_factory=list)
     """(surviving node, deleted node, force [N], smoothing [m]) of links that lost a node."""
+    severed_links: list = field(default_factory=list)
+    """(node i, node j, force [N], smoothing [m]) of links that lost both nodes."""
     removed_fragments: list = field(default_factory=list)
     """Nodes deleted because the edit left them without any triangle."""
     stray_springs: list = field(default_factory=list)
@@ -207,8 +209,8 @@ class TopologyEditor:
 
     def delete_links(self, slots, *, lost_nodes=()) -> None:
         """Delete residual links. A link losing one of ``lost_nodes`` (nodes being deleted) while
-        its other node lives on is reported in ``report.orphaned_links`` for the caller to
-        carry to the node that takes the lost one's place."""
+        its other node lives on is reported in ``report.orphaned_links``, one losing both in
+        ``report.severed_links``, for the caller to carry to the nodes that take their place."""
         table = self.model.link_table
         pairs = table.column("pairs")
         lost = {int(v) for v in lost_nodes}
@@ -216,10 +218,12 @@ class TopologyEditor:
             if not table.alive[slot]:
                 continue
             i, j = (int(v) for v in pairs[slot])
+            force, smoothing = float(table.column("force")[slot]), float(table.column("smoothing")[slot])
             for gone, keep in ((i, j), (j, i)):
                 if gone in lost and keep not in lost and self.model.active[keep]:
-                    self.report.orphaned_links.append(
-                        (keep, gone, float(table.column("force")[slot]), float(table.column("smoothing")[slot])))
+                    self.report.orphaned_links.append((keep, gone, force, smoothing))
+            if i in lost and j in lost:
+                self.report.severed_links.append((i, j, force, smoothing))
             self.node_links[i].discard(slot)
             self.node_links[j].discard(slot)
             self._touched.update((i, j))  # their stable-step rows change

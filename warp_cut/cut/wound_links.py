@@ -43,6 +43,10 @@ class _Places:
         self.sides = inc.project(self.x)[1] if len(self.nodes) else np.zeros(0, np.int64)
         self.load = {}
 
+    def side_of(self, node: int) -> int:
+        """The side (+1 left, -1 right) of one of the candidate nodes."""
+        return int(self.sides[np.flatnonzero(self.nodes == node)[0]])
+
     def taking(self, point, exclude=(), lips_only: bool = False) -> int:
         """The node that takes the place of one at ``point`` [m]: on its side, within the
         radius, lips before other nodes, the least loaded, the nearest; -1 if none."""
@@ -152,18 +156,22 @@ def carry_links(editor: TopologyEditor, inc: Incision, report, positions, reach:
     (within ``reach`` [m]; else the nearest node of the edit there); drop it only when that side
     is gone. The lost node lay at the wound's edge, and the stress the link carries acts between
     the wound's two edges: its other node, if not a lip, moves to the nearest lip on its own side
-    too (so a lip is never pulled across the wound by a node far on the other side). Returns the
-    links lost."""
+    too (so a lip is never pulled across the wound by a node far on the other side). A link
+    that lost both nodes (``report.severed_links``; or whose kept node went later in the edit)
+    is carried to a lip on each side of this incision if its nodes lay on both, and is lost
+    otherwise. Returns the links lost."""
     model = editor.model
-    if not report.orphaned_links:
+    if not (report.orphaned_links or report.severed_links):
         return 0
     lips = _live_lips(inc, model.active)
     others = sorted(v for v in set(report.new_nodes) | editor.touched_nodes
                     if model.active[v] and v not in (inc.start_node, inc.end_node) and v not in lips)
     places = _Places(inc, positions, lips, others, reach)
+    severed = list(report.severed_links)
     lost = 0
     for keep, gone, force, smoothing in report.orphaned_links:
         if not model.active[keep]:
+            severed.append((keep, gone, force, smoothing))
             continue
         a = places.taking(positions[gone], exclude={keep})
         b = keep if keep in places.lip_set else places.taking(positions[keep], exclude={a}, lips_only=True)
@@ -171,6 +179,13 @@ def carry_links(editor: TopologyEditor, inc: Incision, report, positions, reach:
             lost += 1
             continue
         editor.add_link(keep if b < 0 else b, a, force, smoothing)
+    for i, j, force, smoothing in severed:
+        a = places.taking(positions[i], lips_only=True)
+        b = places.taking(positions[j], exclude={a}, lips_only=True)
+        if a < 0 or b < 0 or places.side_of(a) == places.side_of(b):
+            lost += 1
+            continue
+        editor.add_link(a, b, force, smoothing)
     return lost
 
 
