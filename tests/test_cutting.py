@@ -931,6 +931,36 @@ CLOSED_HOLE_EARLIER_STROKES = [
 """The earlier strokes of the closed-hole case: (path, tool)."""
 
 
+def test_a_hole_of_one_missing_triangle_at_a_zigzags_end_is_closed():
+    """Four strokes on a jittered 1.7 mm cylinder mesh under gravity and the foundation, the last
+    a zigzag (r 1.8 mm, 68 degrees) across the three earlier wounds (fuzz case 408484264, seed
+    1). Once the tool had gone, one hole was left: a single missing triangle (sides 2.4-3.6 mm)
+    beside the zigzag's end. Closing it over was refused as spanning 8.5 mm of the curve: its
+    nodes projected onto two legs of the zigzag. A hole whose border is at most twice the
+    allowed span cannot close a longer stretch of the wound: it is closed, and none is left."""
+    surface = cylinder(0.03130150261237247, 0.044741808593288995, 2.2685263937178792, 0.001720539860519368,
+                       jitter=0.4, seed=1259241167)
+    sim = supported_sim(surface, 0.008872471094784336)
+    earlier = [
+        (strokes.line([-0.00015823494289544699, 0.014529069952606971], 5.378775409428625, 0.023876525727815567),
+         (68.77708803935082, 0.002602749535065474, 0.0019267473642884845, 0.005061849641357852,
+          0.03497688154405176)),
+        (strokes.arc([0.013496449365498587, 0.013279149837227359], -2.195159243914991, 0.02072909612718036,
+                     -0.019271772948568813),
+         (32.154892698695804, 0.0010904020792632733, 0.001285885024586735, 0.03583557935113656,
+          0.045754404165442276)),
+        (strokes.line([0.010372971623954036, 0.020718875592195048], -2.0251226717224657, 0.02688637637136526),
+         (56.62794726230003, 0.0018819342242904797, 0.0038409024293346258, 0.0068083156315887,
+          0.049007669209568755)),
+    ]
+    for path, tool in earlier:
+        one_valid_incision(sim, surface, path, *tool)
+    last = strokes.zigzag([0.001359332048389025, 0.012286010060656553], -1.1207695885842939, 0.01119161007651807,
+                          0.004992023859504431, 0.01228116090990181)
+    assert_no_hole_after(sim, surface, last, (67.55018131375604, 0.00184115080411736, 0.0023291807802089575,
+                                              0.005208498318493966, 0.036714450317080344), min_coverage=0.85)
+
+
 @pytest.mark.xfail(strict=True, reason="known defect (docs/cutting.md, 'Crossing an earlier cut'): a hole open to an "
                    "earlier wound puts off fills under 15 degrees without its deferrals being counted, grows past any "
                    "valid fill and stays open; counting them leaves slivers on more strokes")

@@ -234,10 +234,15 @@ def _close_over(chain, editor, incision, positions, slots: LipSlots):
     the slit's two sides (e.g. a lip pushed across the curve by a thick tool, so the hole
     touches the slit at one lip): its border alone cut into ears, which may join the sides -
     the slit stays closed there instead of a hole staying open. Only a hole that spans at most
-    ``_CLOSE_OVER_SPAN`` spacings of the curve: a longer one stays open rather than close a
-    long stretch of the wound. None if not closed."""
+    ``_CLOSE_OVER_SPAN`` spacings of the curve, or whose border is at most twice that long (it
+    cannot close a longer stretch; on a zigzag its nodes may project onto different legs of
+    the curve): a longer one stays open rather than close a long stretch of the wound. None if
+    not closed."""
+    limit = _CLOSE_OVER_SPAN * incision.spacing
     u, _, _ = incision.project(positions[chain])
-    if float(u.max() - u.min()) > _CLOSE_OVER_SPAN * incision.spacing:
+    x = np.asarray(positions[list(chain) + [chain[0]]], dtype=np.float64)
+    perimeter = float(np.linalg.norm(np.diff(x, axis=0), axis=1).sum())
+    if float(u.max() - u.min()) > limit and perimeter > 2.0 * limit:
         return None
     polygon = hole_polygon(chain, [])
     for view in hole_views(incision, positions, polygon):
