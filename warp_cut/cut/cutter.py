@@ -304,8 +304,7 @@ class Cutter:
         self.totals["sliver_flips"] += slivers
         self.totals["delaunay_flips"] += delaunay
         self._apply(sim, report, positions)
-        self.new_triangles.update(report.new_triangles)
-        self.new_triangles.difference_update(report.deleted_triangles)
+        self._track_made_triangles(report)
 
     def _retry_holes(self, sim: CutHost) -> None:
         """Fill again the holes a finished incision left open (its fill could find no valid
@@ -442,9 +441,13 @@ class Cutter:
         tot["new_springs"] += len(report.new_springs)
         tot["removed_fragments"] += len(report.removed_fragments)
         self.unfilled_holes = sum(len(i.open_chains) for i in self.incisions)
+        self._track_made_triangles(report)
+        self._membrane_unsettled |= bool(report.new_triangles)
+
+    def _track_made_triangles(self, report) -> None:
+        """Keep ``new_triangles`` (the live triangles the cut made) up to date with an edit."""
         self.new_triangles.update(report.new_triangles)
         self.new_triangles.difference_update(report.deleted_triangles)
-        self._membrane_unsettled |= bool(report.new_triangles)
 
     def _apply(self, sim: CutHost, report, positions: NodePositions) -> None:
         """Update the explicit step's limit node by node (rows of the nodes whose springs or
