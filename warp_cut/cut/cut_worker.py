@@ -205,6 +205,11 @@ class ReplicaHost:
         write_slots(self.state.positions, new_nodes, new_positions)
 
 
+_ON_NODE = 1e-12
+"""A target nearer a node than this [m] is on it: the floor of the inverse-distance weights. At
+1e-9 m a neighbour 0.1 mm away still took 1e-5 of the weight of a target on a node."""
+
+
 def motion_anchors(points: np.ndarray, alive: np.ndarray, targets: np.ndarray,
                    k: int = ANCHORS) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` nodes of ``alive`` (slots into ``points`` (n, 3) [m]) nearest each target
@@ -217,7 +222,7 @@ def motion_anchors(points: np.ndarray, alive: np.ndarray, targets: np.ndarray,
     take = min(k, len(candidates))
     order = np.argsort(d2, axis=1)[:, :take]
     order = np.concatenate([order, np.repeat(order[:, :1], k - take, axis=1)], axis=1)
-    weights = 1.0 / np.maximum(np.sqrt(np.take_along_axis(d2, order, axis=1)), 1e-9)
+    weights = 1.0 / np.maximum(np.sqrt(np.take_along_axis(d2, order, axis=1)), _ON_NODE)
     return candidates[order], weights / weights.sum(axis=1, keepdims=True)
 
 
