@@ -64,7 +64,7 @@ FAST_PACE = 3.0
 real time)."""
 CUTTING = {"no": (None, None), "in loop": (False, None), "background": (True, 1.0),
            "background, 3x pace": (True, FAST_PACE), f"background, lag {UNPACED_LAG}": (UNPACED_LAG, None)}
-"""The rows' cut (``cut_in_background``: None no cut, False in the step) and the loop's pace
+"""The rows' cut (None: no cut, False: in the step, True or a ``max_lag``: in a worker) and the loop's pace
 (ticks per ms of wall time; None: as fast as it goes): none; in the step (the Cutter in the
 loop); in a worker with the loop paced at 1 kHz as a device would pace it; the same paced at
 FAST_PACE kHz, never waiting for an edit; and in a worker with the loop as fast as it goes,
@@ -78,8 +78,9 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
     mode, pace = CUTTING[cutting]
     background = mode not in (None, False)
     made = time.perf_counter()
-    sim = wc.Simulator(model, dt=1e-3, cutting=mode is not None,
-                       cut_in_background=mode if background else False)
+    cutting = None if mode is None else wc.CutSettings(
+        worker=background, max_lag=mode if background and mode is not True else None)
+    sim = wc.Simulator(model, dt=1e-3, cutting=cutting)
     setup_s = time.perf_counter() - made  # with a background cut, the worker's start
     poses = tools(ticks, curved)
     log = TickLog(ticks, budget=sim.dt, cpu_time=True)
@@ -252,7 +253,7 @@ def _report(rows, overhead, pinned, load_before, load_after) -> str:
         "the worker's start). "
         "`force_jump_*`: tick-to-tick change of the tool force [N]; `_after_cut`: into the tick "
         "that follows a topology edit. `cutting`: no; in loop (the cut event runs inside the "
-        "step of its tick); background (`Simulator(cut_in_background=True)`: a worker process "
+        "step of its tick); background (`Simulator(cutting=CutSettings(worker=True))`: a worker process "
         "runs the event, the loop only sends positions and applies the edit; the loop is paced "
         "at 1 kHz, so `realtime_factor` is at most 1; background, 3x pace: the same paced at 3 kHz "
         "(3 ticks per ms of wall time: 3x real time), never waiting for an edit; background, "

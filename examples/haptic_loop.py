@@ -13,7 +13,7 @@ skin along the blade's axis, then 2 cm/s along x). Each tick it
 3. takes ``sim.tool_force``, the tissue's reaction on the tool: what it would send,
 4. sleeps, then spins, until the tick's deadline.
 
-The cut runs in a worker process (``Simulator(cut_in_background=True)``): a cut event's host
+The cut runs in a worker process (``Simulator(cutting=CutSettings(worker=True))``): a cut event's host
 work (milliseconds) would otherwise land in one tick; ``--cut-in-loop`` runs it in the step, to
 compare. A tick that ends after its deadline is a missed deadline (the device would have held the last
 force): it is printed with its duration and force, and the schedule moves on to the next tick
@@ -197,8 +197,8 @@ def main(argv=None) -> int:
         trace = read_trace(args.trace) if args.trace is not None else scripted_trace((args.ticks or 2199) + 1)
         trace = trace[: args.ticks + 1] if args.ticks else trace
         model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=args.spacing)
-        sim = wc.Simulator(model, dt=PERIOD, cutting=not args.no_cut,
-                           cut_in_background=not (args.no_cut or args.cut_in_loop))
+        cutting = None if args.no_cut else wc.CutSettings(worker=not args.cut_in_loop)
+        sim = wc.Simulator(model, dt=PERIOD, cutting=cutting)
     except (ValueError, wc.InputError) as error:  # a bad trace
         print(f"error: {error}", file=sys.stderr)
         return 2

@@ -249,3 +249,51 @@ def test_documented_rules_are_read_from_the_table():
             "| `mesh` | `errors` |\n| `sim` | `errors`, `mesh` |\n| `errors` | nothing |\n\n## Next\n"
             "| `cut` | `sim` |\n")
     assert documented_rules(text) == {"mesh": {"errors"}, "sim": {"errors", "mesh"}, "errors": set()}
+
+
+# --------------------------------------------------------------------------- the module table
+def documented_modules(text: str) -> set[str]:
+    """Module files docs/architecture.md names: the top-level modules of its tree block
+    (``  simulator.py  ...``) and every module of its ``| module | owns |`` table, as paths
+    relative to the package (``cut/cutter.py``); a bare name in a cell (``bezier.py``) is in the
+    folder of the last one with a folder (``cut/incision.py``, ``bezier.py``)."""
+    tree = text.split("## The tree", 1)[1].split("```", 2)[1]
+    names = {m.group(1) for m in re.finditer(r"^  (\w+\.py)\s", tree, re.MULTILINE)}
+    table = text.split("| module | owns |", 1)[1].split("\n\n", 1)[0]
+    for line in table.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        folder = ""
+        for name in re.findall(r"`([\w/]+\.py)`", cells[0]):
+            if "/" in name:
+                folder = name.rsplit("/", 1)[0] + "/"
+                names.add(name)
+            else:
+                names.add(folder + name)
+    return names
+
+
+def module_files(graph: ImportGraph) -> set[str]:
+    """Every module file of the package but the ``__init__`` of subpackages, relative to the
+    package (``kernels/`` for warp_cut.kernels), the package's own ``__init__.py`` included."""
+    files = set()
+    for name, path in graph.modules.items():
+        if path.name == "__init__.py" and name != "warp_cut":
+            continue
+        parts = name.split(".")[1:]
+        files.add("/".join(parts) + ".py" if parts else "__init__.py")
+    return files
+
+
+def test_the_documented_modules_are_the_modules():
+    text = (REPO / "docs" / "architecture.md").read_text(encoding="utf-8")
+    documented = documented_modules(text)
+    actual = module_files(GRAPH)
+    assert sorted(actual - documented) == [], "modules docs/architecture.md does not name"
+    assert sorted(documented - actual) == [], "docs/architecture.md names modules that do not exist"
+
+
+def test_documented_modules_are_read_from_the_tree_and_the_table():
+    text = ("## The tree\n\n```\nkernels/  x\nwarp_cut/\n  __init__.py  api\n  cli.py    top\n  mesh/  m\n```\n\n"
+            "| module | owns |\n|---|---|\n| `cut/a.py`, `b.py` | x |\n| `sim/c.py` | y |\n\n## Next\n"
+            "| `io/d.py` | z |\n")
+    assert documented_modules(text) == {"__init__.py", "cli.py", "cut/a.py", "cut/b.py", "sim/c.py"}

@@ -19,13 +19,18 @@ from test_cut_fuzz import cut_cases, make_stroke, make_surface
 from warp_cut import Simulator, TissueModel, Tool
 from warp_cut.cut.background import BackgroundCutter
 from warp_cut.cut.cut_worker import ANCHORS, ModelEdit, WorkerEvent, motion_anchors
-from warp_cut.cut.cutter import CutSettings
+from warp_cut.cut.settings import CutSettings
 from warp_cut.errors import CutWorkerError, InputError
+from warp_cut.sim.model_change import ModelChange
 from warp_cut.verify.validity import cut_problems
 
 AXIS = np.array([-0.5, 0.0, 0.866])
 """The scalpel leaning back 60 degrees along -x."""
 TABLES = ("node_table", "spring_table", "triangle_table", "link_table")
+
+
+LAG_1 = CutSettings(worker=True, max_lag=1)
+"""A cut in a worker whose every edit lands two steps after its event (the same every run)."""
 
 
 def scalpel(k: int, lift_at: int | None = None, y: float = 3e-4) -> Tool:
@@ -43,8 +48,8 @@ def cut_stroke(background: bool, ticks: int = 1300, lift_at: int = 1200):
     background, each edit lands two steps after its event (``max_lag`` 1): the loop runs
     faster than real time here, and the run is the same every time."""
     model = TissueModel.from_patch((0.04, 0.03), 0.002)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(),
-                    cut_in_background=1 if background else False)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(worker=True, max_lag=1) if background
+                    else CutSettings())
     for k in range(ticks):
         sim.step(tool=scalpel(k, lift_at))
     if background:
@@ -90,13 +95,13 @@ def test_what_the_loop_reads_between_edits_is_the_worker_cut(background_run):
 
 def test_settings_and_end_incision_reach_the_worker():
     model = TissueModel.from_patch((0.04, 0.03), 0.002)
-    with Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(), cut_in_background=1) as sim:
+    with Simulator(model, dt=1e-3, device=DEVICE, cutting=LAG_1) as sim:
         for k in range(500):
             sim.step(tool=scalpel(k))
         cutter = sim.cutter
         cutter.end_incision(sim)  # the tool is still in: the incision ends anyway
         assert cutter.call(sim, "current") is None and len(cutter.incisions) == 1
-        stiff = CutSettings(force_threshold=1e9)  # no tool pushes this hard: no new incision
+        stiff = CutSettings(force_threshold=1e9, worker=True, max_lag=1)  # no tool pushes this hard
         cutter.settings = stiff
         for k in range(500, 560):
             sim.step(tool=scalpel(k))
@@ -126,7 +131,7 @@ def test_a_lifted_and_returned_tool_makes_two_incisions():
     """The tool leaves the skin while an edit is in flight and comes back: the worker ends
     the first incision before the poses of the second stroke reach it."""
     model = TissueModel.from_patch((0.04, 0.03), 0.002)
-    with Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(), cut_in_background=1) as sim:
+    with Simulator(model, dt=1e-3, device=DEVICE, cutting=LAG_1) as sim:
         for k in range(700):
             sim.step(tool=scalpel(k, lift_at=500) if k < 600 else scalpel(k - 450, y=0.008))
         for k in range(700, 1000):
@@ -147,7 +152,7 @@ def test_a_mesh_that_cannot_be_cut_is_refused_and_no_worker_is_left():
 
 def test_worker_failures_reach_the_loop_and_close_stops_it():
     model = TissueModel.from_patch((0.01, 0.01), 0.002)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=True, cut_in_background=True)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(worker=True))
     cutter = sim.cutter
     with pytest.raises(CutWorkerError, match="AttributeError"):
         cutter.call(sim, "no_such_method")
@@ -165,7 +170,7 @@ def test_a_failed_event_stops_the_cut_for_good():
     """An event that fails in the worker leaves its replica unknown: the error reaches the
     loop, and every later step raises it again instead of cutting a tissue that may differ."""
     model = TissueModel.from_patch((0.02, 0.02), 0.002)
-    with Simulator(model, dt=1e-3, device=DEVICE, cutting=True, cut_in_background=True) as sim:
+    with Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(worker=True)) as sim:
         cutter = sim.cutter
         cutter._post(("event", WorkerEvent(0.0, 1e-3, True, buffer="no-such-buffer", capacity=1, node_count=1)))
         cutter._busy = True
@@ -178,7 +183,7 @@ def test_a_failed_event_stops_the_cut_for_good():
 
 def test_a_dead_worker_is_an_error_not_a_hang():
     model = TissueModel.from_patch((0.02, 0.02), 0.002)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=True, cut_in_background=True)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(worker=True))
     try:
         sim.cutter._process.kill()
         sim.cutter._process.join()
@@ -196,7 +201,7 @@ def test_a_script_without_a_main_guard_is_told_why_its_worker_died(tmp_path):
     script = tmp_path / "no_guard.py"
     script.write_text("import warp_cut as wc\n"
                       "model = wc.TissueModel.from_patch((0.02, 0.02), 0.002)\n"
-                      "wc.Simulator(model, dt=1e-3, cutting=True, cut_in_background=True)\n")
+                      "wc.Simulator(model, dt=1e-3, cutting=wc.CutSettings(worker=True))\n")
     done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
     assert done.returncode != 0
     assert "CutWorkerError" in done.stderr and "if __name__" in done.stderr
@@ -226,7 +231,7 @@ def test_random_strokes_in_the_background_keep_the_invariants_and_the_replica(ca
     s = case["sim"]
     gravity = {} if s["gravity"] and s["integrator"] != "xpbd" else {"gravity": None}
     with Simulator(TissueModel.from_surface(surf), dt=1e-3, device=DEVICE, integrator=s["integrator"],
-                   cutting=CutSettings(interval=s["interval"]), cut_in_background=1, **gravity) as sim:
+                   cutting=CutSettings(interval=s["interval"], worker=True, max_lag=1), **gravity) as sim:
         model = sim.model
         steps = math.ceil(stroke.duration / sim.dt - 1e-9) + 1
         for k in range(steps + 40):  # the stroke, then 40 ms with the tool away
@@ -267,7 +272,8 @@ def test_an_edit_moves_its_new_nodes_with_the_tissue():
     at_event = rng.uniform(-0.01, 0.01, (40, 3))
     new_positions = rng.uniform(-0.005, 0.005, (4, 3))
     anchors, weights = motion_anchors(at_event, np.arange(40), new_positions)
-    edit = ModelEdit({}, np.arange(40, 44), new_positions, None, 1, anchors, weights)
+    change = ModelChange.of(new_nodes=np.arange(40, 44), new_positions=new_positions)
+    edit = ModelEdit({}, change, 1, anchors, weights)
     shift = np.array([3e-4, -2e-4, 1e-4])
     assert np.allclose(edit.positions_now(at_event, at_event + shift), new_positions + shift)
     assert np.allclose(edit.positions_now(at_event, at_event), new_positions)

@@ -197,7 +197,7 @@ def test_a_cut_keeps_hinges_and_step_rows_as_rebuilt_from_scratch(background):
         assert sim.cutter.incisions and model.node_table.count > len(scene.build_model().points)
         assert {tuple(h) for h in hinges.tolist()} == {tuple(h) for h in hinges_of(model.triangles).tolist()}
         assert len(sim.model.hinge_table.live_slots()) == len(hinges)
-        rates = sim.cutter.element_rates
+        rates = sim.solver.limits.rates
         np.testing.assert_allclose(rates.bend[: model.node_count], bending_node_rows(model), rtol=1e-12)
         assert cut_problems(sim) == []
         model.hinge_table.kill([int(model.hinge_table.live_slots()[0])])  # the check sees a lost hinge

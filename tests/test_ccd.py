@@ -196,11 +196,11 @@ def test_simulator_reports_exact_first_contact_on_a_patch():
     sim = Simulator(model, dt=1e-3, gravity=None, residual_stress=False, device=DEVICE)
     sim.step(200, tool=path)
     exact = (h0 - r) / s
-    assert sim.first_contact_time_exact == pytest.approx(exact, abs=1e-9)
+    assert sim.contacts.first_time_exact == pytest.approx(exact, abs=1e-9)
     # the per-step test sees it at the end of the step holding the exact time
-    assert sim.first_contact_time == pytest.approx(math.ceil(exact / 1e-3) * 1e-3, abs=1e-12)
-    assert sim.first_contact_point_exact[2] == pytest.approx(0.0, abs=1e-9)
-    assert abs(sim.first_contact_point_exact[1]) < 1e-9
+    assert sim.contacts.first_time == pytest.approx(math.ceil(exact / 1e-3) * 1e-3, abs=1e-12)
+    assert sim.contacts.first_point_exact[2] == pytest.approx(0.0, abs=1e-9)
+    assert abs(sim.contacts.first_point_exact[1]) < 1e-9
 
 
 def test_simulator_catches_a_tool_the_per_step_test_misses():
@@ -214,5 +214,5 @@ def test_simulator_catches_a_tool_the_per_step_test_misses():
     assert not cylinder_contacts(model.points, path_start_clear.p0, path_start_clear.p1, r, DEVICE).any()
     sim = Simulator(model, dt=1e-3, gravity=None, residual_stress=False, device=DEVICE)
     sim.step(3, tool=path)
-    assert sim.first_contact_time is None
-    assert sim.first_contact_time_exact is not None and 0 < sim.first_contact_time_exact < 1e-3
+    assert sim.contacts.first_time is None
+    assert sim.contacts.first_time_exact is not None and 0 < sim.contacts.first_time_exact < 1e-3

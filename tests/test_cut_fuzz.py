@@ -154,7 +154,8 @@ def test_the_checks_catch_a_broken_tissue():
     from warp_cut.verify.validity import cut_problems
 
     surf = S.flat_grid(0.012, 0.002)
-    sim = wc.Simulator(wc.TissueModel.from_surface(surf), dt=1e-3, gravity=None, device=DEVICE, cutting=True)
+    sim = wc.Simulator(wc.TissueModel.from_surface(surf), dt=1e-3, gravity=None, device=DEVICE,
+                       cutting=wc.CutSettings())
     model = sim.model
     assert cut_problems(sim, surf) == []
 

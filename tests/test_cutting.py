@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from warp_cut import Material, Simulator, TissueModel, Tool, stable_time_step
 from warp_cut.cut.classes import NodeClass, SpringClass
-from warp_cut.cut.cutter import CutSettings
+from warp_cut.cut.settings import CutSettings
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
 from warp_cut.mesh.checks import check_mesh, triangle_min_angles
@@ -556,7 +556,7 @@ def disk_cut(seed, radius_in_spacings, check=True):
     would end the incision (one that runs into an opening ends there)."""
     rng = np.random.default_rng(seed)
     surface = jittered_delaunay(radius=0.012, spacing=SPACING, jitter=0.25, seed=int(rng.integers(2**31)))
-    sim = Simulator(TissueModel.from_surface(surface), dt=1e-3, gravity=None, device=DEVICE, cutting=True)
+    sim = Simulator(TissueModel.from_surface(surface), dt=1e-3, gravity=None, device=DEVICE, cutting=CutSettings())
     radius = radius_in_spacings * SPACING
     inner = 0.012 - radius - 2 * SPACING
     a = disk_point(rng, inner)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import DEVICE
 
-from warp_cut import Material, SceneError, Simulator, TissueModel, stable_time_step
+from warp_cut import CutSettings, Material, SceneError, Simulator, TissueModel, stable_time_step
 from warp_cut.scene import DEFAULT_FOUNDATION_STIFFNESS, load_scene, parse_scene
 from warp_cut.sim.model import lumped_masses
 from warp_cut.sim.stability import ElementRates, node_stiffness_sums
@@ -62,7 +62,7 @@ def test_row_sums_add_kf_times_the_lumped_area():
 def test_cut_keeps_areas_and_rows_of_the_foundation_in_sync():
     mat = Material(foundation_stiffness=K_F)
     model = TissueModel.from_patch((0.03, 0.02), 0.002, material=mat, pinned="border")
-    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE, cutting=True)
+    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE, cutting=CutSettings())
     cutter = sim.cutter
     y = 0.5 * 0.002 * np.sqrt(3) / 2
     cutter.start_incision(sim, np.array([-0.008, y, 0.0]), [0, 0, 1], 0.0006)
@@ -74,11 +74,12 @@ def test_cut_keeps_areas_and_rows_of_the_foundation_in_sync():
     area = lumped_masses(model.points, model.triangles, 1.0)[live]
     device_area = sim.device_model.node_area.numpy()[: model.node_count][live]
     np.testing.assert_allclose(device_area, area, rtol=1e-5)  # float32 on the device
-    full = ElementRates(model)  # rated from scratch, against the cutter's incremental update
+    full = ElementRates(model)  # rated from scratch, against the solver's incremental update
+    rates = sim.solver.limits.rates
     n = model.node_count
-    np.testing.assert_allclose(cutter.element_rates.sums[:n][live], full.sums[:n][live], rtol=1e-9)
+    np.testing.assert_allclose(rates.sums[:n][live], full.sums[:n][live], rtol=1e-9)
     for kind in ElementRates.KINDS:
-        for incremental, fresh in zip(cutter.element_rates.rates[kind], full.rates[kind]):
+        for incremental, fresh in zip(rates.rates[kind], full.rates[kind]):
             alive = {"triangles": model.triangle_table, "springs": model.spring_table,
                      "links": model.link_table, "foundation": model.node_table}[kind].alive
             np.testing.assert_allclose(incremental[: len(alive)][alive], fresh[: len(alive)][alive], rtol=1e-9)

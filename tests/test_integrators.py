@@ -154,4 +154,4 @@ def test_held_tool_reaction_equals_the_spring_force(integrator):
     # the reaction is I dx / h^2 with dx ~ 1 mm, the difference of float32 coordinates near
     # 0.1 m (half an ulp, 3.7e-9 m, each): a few 1e-6 relative, hence 2e-5
     np.testing.assert_allclose(sim.tool_force, [-k * stretch, 0, 0], rtol=2e-5, atol=1e-6)
-    assert sim.contact_count == 1
+    assert sim.contacts.count == 1

@@ -17,13 +17,13 @@ from conftest import DEVICE
 
 from warp_cut import InputError, Material, SceneError, Simulator, TissueModel
 from warp_cut.cut.classes import NodeClass
-from warp_cut.cut.cutter import CutSettings
-from warp_cut.cut.topology import MAX_PRESTRAIN
+from warp_cut.cut.settings import CutSettings
 from warp_cut.mesh.geometry import edges_of
 from warp_cut.mesh.patch import skin_patch_mesh
 from warp_cut.mesh.surfaces import flat_grid, jittered_delaunay
 from warp_cut.scene import load_scene, parse_scene
 from warp_cut.sim import strokes
+from warp_cut.sim.material_policy import MAX_PRESTRAIN
 from warp_cut.sim.model import boundary_nodes
 from warp_cut.sim.prestress import membrane_edge_tensions
 from warp_cut.sim.statics import spring_network_forces
@@ -158,7 +158,7 @@ def quasi_static_cut(material, stiffness_model="constant"):
                                              material.youngs_modulus, material.thickness)
         if material.residual_stress_model == "prestress":
             model.apply_prestress()
-    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE, cutting=True)
+    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE, cutting=CutSettings())
     cutter = sim.cutter
     y = 0.5 * 0.002 * np.sqrt(3) / 2  # between two node rows
     cutter.start_incision(sim, np.array([-0.008, y, 0.0]), [0, 0, 1], 0.0006)

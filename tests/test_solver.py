@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from conftest import DEVICE
 
-from warp_cut import Simulator, TissueModel, Tool
+from warp_cut import CutSettings, Simulator, TissueModel, Tool
+from warp_cut.sim.model_change import ModelChange
 from warp_cut.solvers import INTEGRATORS
 from warp_cut.solvers.base import CAPTURE_GAP
 from warp_cut.solvers.launches import AUTO_CAPTURE_AFTER
@@ -126,7 +127,7 @@ def test_an_edited_simulator_steps_like_one_built_from_the_edited_model(integrat
     launches, which span the arrays' capacity): the next steps must equal those of a
     simulator made from scratch from the edited model, in the same state."""
     model = TissueModel.from_patch((0.03, 0.02), 0.002)
-    sim = Simulator(model, dt=1e-3, integrator=integrator, device=DEVICE, cutting=True)
+    sim = Simulator(model, dt=1e-3, integrator=integrator, device=DEVICE, cutting=CutSettings())
     tool = Tool([0.0, 3e-4, 0.0005], [0.0, 3e-4, 0.02], 0.001)
     sim.step(5, tool=tool)
     recorded = dict(sim.solver._sequences)
@@ -157,7 +158,7 @@ def test_a_node_table_that_outgrows_its_capacity_keeps_the_state():
     far = np.tile([0.5, 0.5, 0.5], (n, 1)) + np.arange(n)[:, None] * 1e-3
     slots = table.append(points=far, masses=np.full(n, 1e-6), damping=np.zeros(n),
                          pinned=np.ones(n, bool), node_class=np.zeros(n, np.int8))
-    sim.apply_topology_edit(slots, far)
+    sim.notify_model_changed(ModelChange.of(new_nodes=slots, new_positions=far, touched_nodes=slots))
     assert sim.state.node_count >= table.capacity > len(x) + n - 5
     np.testing.assert_array_equal(sim.positions[: len(x)], x.astype(np.float32))
     np.testing.assert_array_equal(sim.velocities[: len(v)], v.astype(np.float32))

@@ -360,6 +360,6 @@ def test_element_rates_follow_an_edit_that_makes_and_deletes_nodes_past_the_capa
     made = editor.add_nodes(np.zeros((spare + 3, 3)))
     editor.delete_nodes(made)
     editor.finish()
-    rates.update(editor.touched_nodes | set(made.tolist()), editor)
+    rates.update(editor.model_change(np.zeros((len(made), 3))))
     fresh = ElementRates(model).limit()
     assert rates.limit().step == pytest.approx(fresh.step, rel=1e-12)

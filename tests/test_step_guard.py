@@ -106,14 +106,14 @@ def test_single_step_calls_take_the_same_steps_as_one_batched_call(integrator):
         p0, p1 = path.endpoints_at(single.time + dt)  # the time step() evaluates a path at
         single.step(tool=Tool(p0, p1, path.radius))
         forces.append(single.tool_force)
-    assert single.first_contact_time is not None  # the tool did press in
+    assert single.contacts.first_time is not None  # the tool did press in
     # the same launches on the same data: equal on the CPU, to float32 rounding where atomic
     # sums may be ordered differently from run to run (CUDA)
     np.testing.assert_allclose(single.positions, batched.positions, rtol=0, atol=1e-8)
     np.testing.assert_allclose(single.tool_force, batched.tool_force, rtol=1e-5, atol=1e-9)
-    assert single.max_tool_force == pytest.approx(batched.max_tool_force, rel=1e-5)
-    assert single.max_tool_force == pytest.approx(max(np.linalg.norm(f) for f in forces))
-    assert single.first_contact_time_exact == pytest.approx(batched.first_contact_time_exact, rel=1e-9)
+    assert single.contacts.max_force == pytest.approx(batched.contacts.max_force, rel=1e-5)
+    assert single.contacts.max_force == pytest.approx(max(np.linalg.norm(f) for f in forces))
+    assert single.contacts.first_time_exact == pytest.approx(batched.contacts.first_time_exact, rel=1e-9)
 
 
 def test_readout_copies_match_the_views():

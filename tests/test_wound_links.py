@@ -6,8 +6,8 @@ import pytest
 from conftest import DEVICE
 
 from warp_cut import Material, Simulator, TissueModel
-from warp_cut.cut.cutter import CutSettings
 from warp_cut.cut.incision import Incision
+from warp_cut.cut.settings import CutSettings
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.cut.wound_links import align_links, carry_links, open_links
 

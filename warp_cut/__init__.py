@@ -8,7 +8,7 @@ Model / State / Control / Solver, as in Warp's sim and Newton:
 * ``Simulator`` - binds them to a solver and steps in time.
 """
 
-from .cut.cutter import CutSettings
+from .cut.settings import CutSettings
 from .errors import CutWorkerError, InputError, SceneError, SimulationUnstable, ToolStartsInside, WarpCutError
 from .sim.collision import cylinder_contacts
 from .sim.control import Tool, ToolPath

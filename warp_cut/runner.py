@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import math
+import dataclasses
 import sys
 import time
 from dataclasses import dataclass, field
@@ -20,7 +20,6 @@ from .mesh.checks import check_mesh
 from .mesh.geometry import compact_surface
 from .scene import Scene
 from .simulator import Simulator
-from .solvers import INTEGRATORS
 from .ticks import Pacer, TickLog, frozen_gc
 
 __all__ = ["RunResult", "prepare_simulation", "run_scene", "run_to_directory", "record_frame",
@@ -49,30 +48,29 @@ class RunResult:
     without cutting."""
 
 
-def prepare_simulation(scene: Scene, cut_in_background: bool | int = False):
-    """Build the model and a Simulator whose dt divides the frame time exactly
-    (``cut_in_background``: as the Simulator's option, for a scene that cuts).
+def prepare_simulation(scene: Scene, *, cut_in_background: bool = False, max_lag: int | None = None):
+    """Build the model and a Simulator whose step divides the frame time exactly (the
+    Simulator's own choice of step, shortened to fit: ``Simulator.fit_to_frame``).
+
+    ``cut_in_background``: for a scene that cuts, cut in a worker process
+    (``CutSettings(worker=True)``), its events in flight at most ``max_lag`` steps (None: no
+    bound).
 
     Returns (model, simulator, tool_path, steps_per_frame). Raises InputError (bad scene, tool inside tissue).
     """
     model = scene.build_model()
-    frame_dt = 1.0 / scene.fps
-    dt = scene.solver.dt
-    if dt == "auto":
-        limit = INTEGRATORS[scene.solver.integrator].step_limit(model).step
-        target = scene.solver.safety * limit if math.isfinite(limit) else frame_dt
-        substeps = 1 if scene.solver.substeps == "auto" else scene.solver.substeps
-        target *= substeps
-    else:
-        target = dt
-    steps_per_frame = max(1, math.ceil(frame_dt / target - 1e-9))
     options = scene.simulator_options()
-    if options.get("cutting") and cut_in_background:
-        options["cut_in_background"] = cut_in_background
-    sim = Simulator(model, dt=frame_dt / steps_per_frame, **options)
-    path = scene.tool_path()
-    if path is not None and scene.physics.collision:
-        sim.check_tool_outside(path.pose_at(0.0))
+    if options.get("cutting") is not None and cut_in_background:
+        options["cutting"] = dataclasses.replace(options["cutting"], worker=True, max_lag=max_lag)
+    sim = Simulator(model, dt=scene.solver.dt, **options)
+    try:
+        steps_per_frame = sim.fit_to_frame(1.0 / scene.fps)
+        path = scene.tool_path()
+        if path is not None and scene.physics.collision:
+            sim.check_tool_outside(path.pose_at(0.0))
+    except BaseException:
+        sim.close()
+        raise
     return model, sim, path, steps_per_frame
 
 
@@ -105,11 +103,11 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=(), cut_in_backgrou
     """
     check_pace(pace, cut_in_background)
     background = bool(cut_in_background) and scene.physics.cutting
-    model, sim, path, steps_per_frame = prepare_simulation(scene, background)
+    model, sim, path, steps_per_frame = prepare_simulation(scene, cut_in_background=background)
     try:
         series, ticks, wall = _step_frames(scene, sim, path, steps_per_frame, quiet, observers,
                                            Pacer(sim.dt / pace) if background else None)
-        if background:
+        if sim.cutter is not None:
             sim.cutter.flush(sim)
         metrics = run_metrics(scene, sim, series, steps=scene.frame_count * steps_per_frame,
                               wall_time=wall, ticks=ticks if path is not None else None)
@@ -171,7 +169,7 @@ def frame_values(sim: Simulator, ticks: TickLog | None = None) -> dict:
     """One row of timeseries.csv from the simulator's state now: column name -> value
     (``tick_max_ms`` from ``ticks``, the frame's ticks; 0 without)."""
     fx, fy, fz = sim.tool_force
-    row = {"t": sim.time, "tool_fx": fx, "tool_fy": fy, "tool_fz": fz, "contacts": sim.contact_count,
+    row = {"t": sim.time, "tool_fx": fx, "tool_fy": fy, "tool_fz": fz, "contacts": sim.contacts.count,
            "kinetic_energy": sim.kinetic_energy(),
            "tick_max_ms": ticks.frame_max_ms() if ticks is not None else 0.0}
     if sim.cutter is not None:
@@ -216,11 +214,11 @@ def run_metrics(scene: Scene, sim: Simulator, series: dict, *, steps: int,
         "sim_time_s": sim.time,
         "wall_time_s": wall_time,
         "realtime_factor": sim.time / wall_time if wall_time > 0 else None,
-        "first_contact_time_s": sim.first_contact_time,
-        "first_contact_point": sim.first_contact_point,
-        "first_contact_time_exact_s": sim.first_contact_time_exact,
-        "first_contact_point_exact": sim.first_contact_point_exact,
-        "max_tool_force_n": sim.max_tool_force,
+        "first_contact_time_s": sim.contacts.first_time,
+        "first_contact_point": sim.contacts.first_point,
+        "first_contact_time_exact_s": sim.contacts.first_time_exact,
+        "first_contact_point_exact": sim.contacts.first_point_exact,
+        "max_tool_force_n": sim.contacts.max_force,
         "finite": True,
         "mesh": mesh_quality(sim),
     }

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cut.cutter import CutSettings
+from .cut.settings import CutSettings
 from .errors import InputError, SceneError
 from .mesh.checks import cuttable_problems
 from .sim.bending import flexural_rigidity

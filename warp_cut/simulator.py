@@ -8,26 +8,54 @@ from collections.abc import Callable
 import numpy as np
 import warp as wp
 
-from .cut.background import DEFAULT_MAX_LAG, BackgroundCutter
-from .cut.cutter import CutSettings, Cutter
+from .cut.driver import CutDriver, make_cut_driver
+from .cut.settings import CutSettings
 from .errors import InputError, SimulationUnstable, ToolStartsInside
 from .kernels.diagnostics import displacement_limit_sq, find_runaway_nodes, kinetic_energy
 from .sim.ccd import ContinuousDetector
 from .sim.collision import cylinder_contacts
+from .sim.contacts import ToolContacts
 from .sim.control import Tool, ToolPath
 from .sim.device_model import DeviceModel, write_slots
 from .sim.model import TissueModel
+from .sim.model_change import ModelChange
 from .sim.stability import StepLimit
 from .sim.state import State
 from .solvers import INTEGRATORS
 from .solvers.readout import NO_BAD_NODE
 
-__all__ = ["Simulator", "DEFAULT_GRAVITY"]
+__all__ = ["Simulator", "DEFAULT_GRAVITY", "choose_steps"]
 
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 """Standard gravity [m/s^2], Z up."""
 
 ToolInput = None | Tool | ToolPath | Callable[[float], Tool]
+
+
+def choose_steps(limit: float, dt: float | str, substeps: int | str, safety: float) -> tuple[float, int]:
+    """The step [s] and substeps for a stable step ``limit`` [s] (inf: nothing limits it).
+
+    ``dt`` is a number of seconds or ``"auto"``: ``safety`` x the limit times the substeps
+    (one unless ``substeps`` is a number). ``substeps`` is a number or ``"auto"``: the fewest
+    that keep each substep within ``safety`` x the limit. Raises InputError for anything else.
+    """
+    if isinstance(dt, str):
+        if dt != "auto":
+            raise InputError(f"dt must be a positive number of seconds or 'auto', got {dt!r}")
+        if not math.isfinite(limit):
+            raise InputError("dt = 'auto' needs a model with springs (nothing limits the step)")
+        dt = safety * limit * (1 if isinstance(substeps, str) else int(substeps))
+    dt = float(dt)
+    if not (math.isfinite(dt) and dt > 0):
+        raise InputError(f"dt must be a positive number of seconds, got {dt}")
+    if isinstance(substeps, str):
+        if substeps != "auto":
+            raise InputError(f"substeps must be a positive integer or 'auto', got {substeps!r}")
+        substeps = 1 if not math.isfinite(limit) else max(1, math.ceil(dt / (safety * limit)))
+    substeps = int(substeps)
+    if substeps < 1:
+        raise InputError(f"substeps must be >= 1, got {substeps}")
+    return dt, substeps
 
 
 class Simulator:
@@ -36,7 +64,7 @@ class Simulator:
     Args:
         model: the TissueModel (kept by reference: the single topology store).
         dt: time of one ``step()`` [s] (default 1 ms, a haptic loop's period), or ``"auto"``
-            for ``safety`` x the stable step with one substep.
+            for ``safety`` x the stable step (times ``substeps`` if that is a number).
         substeps: integration substeps per step, or ``"auto"``: the fewest that keep each
             substep within ``safety`` x the stable step.
         integrator: one of ``INTEGRATORS``: ``"semi_implicit"`` (default), ``"implicit_euler"``,
@@ -47,13 +75,10 @@ class Simulator:
         max_displacement: a node farther than this from its rest position [m] is a runaway
             (default 1000 x the model's bounding-box diagonal, at least 1 m).
         device: Warp device, ``"cpu"`` or ``"cuda:0"``.
-        cutting: None/False for no cutting, True or a ``CutSettings`` to cut the tissue where
-            the tool goes (see ``warp_cut.cut.cutter``); the Cutter is then ``self.cutter``.
-        cut_in_background: run the cut's host work in a worker process (a
-            ``warp_cut.cut.background.BackgroundCutter`` is then ``self.cutter``): a cut event
-            no longer lands in one step, for a fixed-rate loop; call ``close()`` when done.
-            True (never wait for the worker), or the ``max_lag`` in steps an edit may take
-            before the loop waits for it.
+        cutting: None for no cutting, or the ``CutSettings`` of a cut that follows the tool;
+            its driver is then ``self.cutter`` (``warp_cut.cut.driver``): the cut in the step,
+            or with ``CutSettings(worker=True)`` in a worker process, so a cut event no longer
+            lands in one step (a fixed-rate loop; call ``close()`` when done).
     """
 
     def __init__(self, model: TissueModel, dt: float | str = 1.0e-3, *,
@@ -61,11 +86,13 @@ class Simulator:
                  device: str = "cpu", substeps: int | str = "auto",
                  residual_stress: bool = True, collision: bool = True,
                  safety: float = 0.5, max_displacement: float | None = None,
-                 cutting=None, cut_in_background: bool | int = False):
+                 cutting: CutSettings | None = None):
         if integrator not in INTEGRATORS:
             raise InputError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
         if not (0 < safety <= 1):
             raise InputError(f"safety must be in (0, 1], got {safety}")
+        if cutting is not None and not isinstance(cutting, CutSettings):
+            raise InputError(f"cutting must be None or a CutSettings, got {type(cutting).__name__}")
         wp.init()
         self.model = model
         self.device = device
@@ -76,7 +103,7 @@ class Simulator:
             raise InputError(f"gravity must be three finite numbers [m/s^2], got {gravity!r}")
         self.residual_stress = residual_stress
         self.collision = collision
-        self._cutting = bool(cutting)
+        self._cutting = cutting is not None
         extent = np.ptp(model.points[model.active], axis=0) if model.active.any() else np.zeros(3)
         self.max_displacement = float(max_displacement or max(1.0, 1000.0 * np.linalg.norm(extent)))
         self._dt_request, self._substeps_request = dt, substeps
@@ -85,42 +112,27 @@ class Simulator:
         self._step_count = 0
         self._time_offset = 0.0
         self._tool_checked = False
-        self.tool_force = np.zeros(3)
-        """Reaction of the tissue on the tool over the last step [N], (3,)."""
-        self.contact_count = 0.0
-        """Mean number of nodes in contact per substep over the last step."""
-        self.first_contact_time: float | None = None
-        """Time [s] at the end of the first step with a contact, or None."""
-        self.first_contact_point: np.ndarray | None = None
-        """Mean position [m] of the nodes in contact during that step, or None."""
-        self.max_tool_force = 0.0
-        """Largest |tool_force| of any step so far [N]."""
+        self.contacts = ToolContacts.none()
+        """The tool's contacts: over the last step (force, count, centroid) and the run so far
+        (largest force, first contact discrete and exact)."""
         self.tool_pose: Tool | None = None
         """The tool pose of the last step (its end), or None before the first step with a tool."""
-        self.first_contact_time_exact: float | None = None
-        """Exact first-contact time [s] of the swept tool (continuous detection), or None."""
-        self.first_contact_point_exact: np.ndarray | None = None
-        """Mean position [m] of the nodes the swept tool reaches first, or None."""
         self._ccd = None
-        self.contact_centroid: np.ndarray | None = None
-        """Mean position [m] of the nodes in contact during the last step, or None."""
-        self._rebuild()
+        self.device_model = DeviceModel(self.model, self.device)
+        self.solver = self._make_solver()
+        self._choose_steps()
         self.post_step_hooks: list[Callable[[Simulator], None]] = []
-        """Called with the simulator after every step, in order (e.g. ``Cutter.after_step``)."""
-        self.cutter: Cutter | BackgroundCutter | None = None
-        """The Cutter (or BackgroundCutter) when the simulator was made with ``cutting``."""
-        if cutting:
-            settings = cutting if isinstance(cutting, CutSettings) else None
-            if cut_in_background:
-                lag = DEFAULT_MAX_LAG if cut_in_background is True else int(cut_in_background)
-                self.cutter = BackgroundCutter(model, settings, max_lag=lag)
-            else:
-                self.cutter = Cutter(model, settings, device)
+        """Called with the simulator after every step, in order (e.g. the cut's ``after_step``)."""
+        self.cutter: CutDriver | None = None
+        """The cut driver (``warp_cut.cut.driver.CutDriver``) when the simulator was made with
+        ``cutting``, else None."""
+        if cutting is not None:
+            self.cutter = make_cut_driver(model, cutting, device, INTEGRATORS[integrator].limit_tracker)
             self.post_step_hooks.append(self.cutter.after_step)
 
     def close(self) -> None:
-        """Release what outlives a step: the background cut's worker process, if any."""
-        if isinstance(self.cutter, BackgroundCutter):
+        """Release what outlives a step: the cut's worker process, if any."""
+        if self.cutter is not None:
             self.cutter.close()
 
     def __enter__(self) -> Simulator:
@@ -130,47 +142,40 @@ class Simulator:
         self.close()
 
     # --------------------------------------------------------------- set-up
-    def _rebuild(self) -> None:
-        """Derive device arrays, solver, stable step and substeps from the model."""
-        self.device_model = DeviceModel(self.model, self.device)
-        self.solver = self._make_solver()
-        # per-integrator limit: infinite for the unconditionally stable integrators
-        self.step_limit: StepLimit = INTEGRATORS[self.integrator].step_limit(self.model)
-        self._choose_steps()
-
-    def _make_solver(self):
-        solver = INTEGRATORS[self.integrator](
+    def _make_solver(self, limits=None):
+        """The integrator bound to the device mirror; ``limits``: a step-limit tracker to carry
+        on with (after a reallocation), else one made from the model."""
+        return INTEGRATORS[self.integrator](
             self.device_model, gravity=self.gravity, residual_stress=self.residual_stress,
-            collision=self.collision, max_displacement=self.max_displacement)
-        # a cut makes links: launch them from the start, so their first ones record nothing
-        solver.links_expected = self._cutting
-        return solver
+            collision=self.collision, max_displacement=self.max_displacement,
+            links_expected=self._cutting, limits=limits)
 
     def _choose_steps(self) -> None:
-        limit = self.step_limit.step
-        dt, substeps = self._dt_request, self._substeps_request
-        if isinstance(dt, str):
-            if dt != "auto":
-                raise InputError(f"dt must be a positive number of seconds or 'auto', got {dt!r}")
-            if not math.isfinite(limit):
-                raise InputError("dt = 'auto' needs a model with springs (nothing limits the step)")
-            dt, substeps = self.safety * limit, 1
-        dt = float(dt)
-        if not (math.isfinite(dt) and dt > 0):
-            raise InputError(f"dt must be a positive number of seconds, got {dt}")
-        if isinstance(substeps, str):
-            if substeps != "auto":
-                raise InputError(f"substeps must be a positive integer or 'auto', got {substeps!r}")
-            substeps = 1 if not math.isfinite(limit) else max(1, math.ceil(dt / (self.safety * limit)))
-        substeps = int(substeps)
-        if substeps < 1:
-            raise InputError(f"substeps must be >= 1, got {substeps}")
+        dt, substeps = choose_steps(self.step_limit.step, self._dt_request, self._substeps_request, self.safety)
         if self._step_count:
             # keep the clock exact across a change of dt (after a topology edit)
             self._time_offset = self.time
             self._step_count = 0
         self.dt = dt
         self.substeps = substeps
+
+    def fit_to_frame(self, frame_dt: float) -> int:
+        """Shorten the step so that a whole number of steps makes ``frame_dt`` [s] (the run
+        loop's output frames), keeping the substep choice; returns the steps per frame."""
+        steps = max(1, math.ceil(frame_dt / self.dt - 1e-9))
+        self._dt_request = frame_dt / steps
+        self._choose_steps()
+        return steps
+
+    @property
+    def step_limit(self) -> StepLimit:
+        """The integrator's stable (sub)step for the model as it is now (inf: no limit)."""
+        return self.solver.limits.limit
+
+    @property
+    def tool_force(self) -> np.ndarray:
+        """Reaction of the tissue on the tool over the last step [N], (3,) (``contacts.force``)."""
+        return self.contacts.force
 
     # --------------------------------------------------------------- properties
     @property
@@ -197,13 +202,8 @@ class Simulator:
     def incision_controls(self) -> np.ndarray | None:
         """Control points [m] of the incision's cubic Bezier chain, (3 s + 1, 3) for s segments
         (end points shared), or None while there is no incision (the latest incision's when a
-        cut has been restarted)."""
-        if self.cutter is None:
-            return None
-        if isinstance(self.cutter, BackgroundCutter):  # as of the latest edit applied
-            return self.cutter.incision_controls
-        curves = [inc.curve for inc in self.cutter.incisions if inc.curve is not None]
-        return curves[-1].control_points_flat() if curves else None
+        cut has been restarted; with a worker, as of the latest edit applied)."""
+        return None if self.cutter is None else self.cutter.incision_controls
 
     @property
     def state(self) -> State:
@@ -283,18 +283,17 @@ class Simulator:
         if solver.readout.first_bad != NO_BAD_NODE:
             self._raise_unstable(solver.readout.first_bad)
         if use_tool:
-            self._read_tool_stats()
+            force, count, position_sum = solver.readout.tool_stats()
+            self.contacts.record_step(force, count, position_sum, self.substeps, self.time)
         else:
-            self.tool_force = np.zeros(3)
-            self.contact_count = 0.0
-            self.contact_centroid = None
+            self.contacts.no_tool()
         for hook in self.post_step_hooks:
             hook(self)
 
     def _before_contact(self, tool: ToolInput, pose: Tool) -> None:
         """Until the first contact is known: check the first pose is outside the tissue, and
         run the continuous first-contact detection over the coming step."""
-        if self.first_contact_time_exact is not None or self.first_contact_time is not None:
+        if self.contacts.first_known:
             return
         if not self._tool_checked:
             self.check_tool_outside(self._resolve_tool(tool, self.time))
@@ -310,55 +309,28 @@ class Simulator:
                                       self.device_model.node_flags, start, end,
                                       t_start=self.time, interval=self.dt, overlap=1e-3)
         if hit is not None:
-            self.first_contact_time_exact = hit.time
-            self.first_contact_point_exact = hit.point
+            self.contacts.record_exact(hit.time, hit.point)
 
-    def _read_tool_stats(self) -> None:
-        force, count, position_sum = self.solver.readout.tool_stats()
-        force /= self.substeps
-        self.tool_force = force
-        self.contact_count = count / self.substeps
-        self.max_tool_force = max(self.max_tool_force, math.sqrt(force.dot(force)))
-        self.contact_centroid = position_sum / count if count else None
-        if count and self.first_contact_time is None:
-            self.first_contact_time = self.time
-            self.first_contact_point = self.contact_centroid
-
-    def apply_topology_edit(self, new_nodes: np.ndarray, new_positions: np.ndarray,
-                            explicit_limit: StepLimit | None = None) -> None:
-        """Mirror the model's latest edit on the device and update the stable step.
-
-        Changed slots are copied (arrays are reallocated only when a table outgrew its
-        capacity) and new nodes start at rest.
-
-        Args:
-            new_nodes: Slots of the nodes the edit created, shape (k,).
-            new_positions: Their positions [m], shape (k, 3).
-            explicit_limit: The semi-implicit step's limit after the edit, when the caller
-                keeps it up to date (the Cutter does, node by node); other integrators, or
-                None, compute theirs from the model.
-        """
+    def notify_model_changed(self, change: ModelChange) -> None:
+        """Take a topology edit of the model (``ModelChange``): mirror its changed slots on the
+        device (arrays are reallocated only when a table outgrew its capacity), place its new
+        nodes at rest where it says, let the solver re-derive and follow its stable step, and
+        choose the substeps again. The launches of the next step are recorded now, in the step
+        that made the edit."""
         reallocated = self.device_model.sync()
         capacity = self.model.node_table.capacity
         if self._state.node_count < capacity:
             self._state, self._next = self._state.grown(capacity), self._next.grown(capacity)
             reallocated = True
-        idx = np.asarray(new_nodes, np.int64)
+        idx = np.asarray(change.new_nodes, np.int64)
         for state in (self._state, self._next):
-            write_slots(state.positions, idx, np.asarray(new_positions).reshape(-1, 3))
+            write_slots(state.positions, idx, change.new_positions)
             write_slots(state.velocities, idx, np.zeros((len(idx), 3)))
         if reallocated:
-            self.solver = self._make_solver()
-        else:
-            self.solver.topology_changed()
-        self.update_step_limit(explicit_limit if self.integrator == "semi_implicit" else None)
-        # record the new launches now, in the step that made the edit, not in the next one
-        self.solver.prepare(self._state, self._next, self.substep)
-
-    def update_step_limit(self, limit: StepLimit | None = None) -> None:
-        """Set the stable step (recomputed from the model if not given) and the substeps."""
-        self.step_limit = limit or INTEGRATORS[self.integrator].step_limit(self.model)
+            self.solver = self._make_solver(limits=self.solver.limits)
+        self.solver.notify_model_changed(change)
         self._choose_steps()
+        self.solver.prepare(self._state, self._next, self.substep)
 
     def check_finite(self) -> None:
         """Raise SimulationUnstable if any active node is non-finite or has run away.

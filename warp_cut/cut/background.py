@@ -10,9 +10,10 @@ holds a replica of the model and runs the Cutter on it (``warp_cut.cut.cut_worke
 2. the worker runs the event on its replica and sends back the edit: the changed rows of the
    model's slot tables, the new nodes' positions and the explicit step's new limit;
 3. the loop receives it at the first step after it arrives and applies it at the next
-   (``SlotTable.put_rows`` and ``Simulator.apply_topology_edit``: a few hundred microseconds,
-   nothing that grows with the mesh or the cut). Sending, receiving and applying each take a
-   step of their own.
+   (``SlotTable.put_rows`` and ``Simulator.notify_model_changed``, the stable step worked out
+   by the worker with the simulation's own integrator: a few hundred microseconds, nothing
+   that grows with the mesh or the cut). Sending, receiving and applying each take a step of
+   their own.
 
 While an edit is in flight no event is sent; the next is due one interval after the previous
 one was sent, or at once when the tool has left the tissue (the end of an incision). The edit
@@ -42,14 +43,13 @@ import warp as wp
 from ..errors import CutWorkerError, InputError
 from ..sim.model import TissueModel
 from .cut_worker import CutSummary, ModelEdit, SharedPositions, WorkerEvent, serve
-from .cutter import CutSettings
+from .events import EventClock
+from .host import CutHost
 from .measures import incision_width
+from .settings import CutSettings
 
-__all__ = ["BackgroundCutter", "DEFAULT_MAX_LAG"]
+__all__ = ["BackgroundCutter"]
 
-DEFAULT_MAX_LAG = None
-"""Steps a cut event may stay in flight before the loop waits for it: None, never (a haptic
-loop would rather cut late than answer late)."""
 _START_TIMEOUT_S = 120.0
 """How long the worker may take to start (import Warp, load the cut's kernels) [s]."""
 
@@ -102,14 +102,17 @@ class BackgroundCutter:
 
     Args:
         model: The tissue the simulation steps (edited by the worker's edits as they arrive).
-        settings: Cutting parameters (default ``CutSettings()``).
-        cpus: CPUs the worker may run on (default: when the loop's process is pinned to some
-            of the machine's CPUs, the others; else the same as the loop's).
-        max_lag: Steps an event may stay in flight; at the next step the loop waits for the
+        settings: Cutting parameters (default ``CutSettings(worker=True)``). ``max_lag``: the
+            steps an event may stay in flight; at the next step the loop waits for the
             worker's answer. None (default): never wait, the edit lands when it is ready (an
             event takes the worker 10-25 ms, more where holes are re-tried). A loop faster than
             real time may set it, so that the cut does not fall behind the tool by more than
             this; 1: every edit lands two steps after its event (reproducible run to run).
+        cpus: CPUs the worker may run on (default: when the loop's process is pinned to some
+            of the machine's CPUs, the others; else the same as the loop's).
+        limit_tracker: The simulation's integrator's step-limit tracker
+            (``SolverBase.limit_tracker``): the worker follows the stable step with it on its
+            replica and sends it with every edit (None: the loop's solver works it out).
 
     Raises:
         InputError: The mesh cannot be cut (the worker's Cutter refused it).
@@ -117,12 +120,9 @@ class BackgroundCutter:
     """
 
     def __init__(self, model: TissueModel, settings: CutSettings | None = None,
-                 cpus: set[int] | None = None, max_lag: int | None = DEFAULT_MAX_LAG):
-        if max_lag is not None and int(max_lag) < 1:
-            raise InputError(f"max_lag must be >= 1 step or None, got {max_lag}")
-        self.max_lag = None if max_lag is None else int(max_lag)
+                 cpus: set[int] | None = None, limit_tracker=None):
         self.model = model
-        self._settings = settings or CutSettings()
+        self._settings = settings or CutSettings(worker=True)
         self._settings_due: CutSettings | None = None
         self.summary = CutSummary()
         """What the loop reads of the cut between edits, as of the latest edit applied."""
@@ -133,7 +133,7 @@ class BackgroundCutter:
         # the model goes through the pipe, not the process's arguments: a worker that dies while
         # starting would leave a large argument's write blocked for ever
         self._process = context.Process(
-            target=serve, args=(child, self.settings, self.cpus, wp.config.log_level),
+            target=serve, args=(child, self.settings, self.cpus, wp.config.log_level, limit_tracker),
             name="warp_cut-cutter", daemon=True)
         self._process.start()
         child.close()
@@ -145,7 +145,7 @@ class BackgroundCutter:
         self._received: list[ModelEdit] | None = None
         self._poses = np.zeros((64, 7))
         self._pose_count = 0
-        self._last_event = -np.inf
+        self._clock = EventClock()
         self._tool_in = False
         self._end_due = False
         self.edits_applied = 0
@@ -177,7 +177,12 @@ class BackgroundCutter:
                 "'if __name__ == \"__main__\":' (see the worker's own error above)") from err
 
     # ----------------------------------------------------------------- the loop's side
-    def after_step(self, sim) -> None:
+    @property
+    def max_lag(self) -> int | None:
+        """Steps an event may stay in flight before the loop waits for it (``settings.max_lag``)."""
+        return self._settings.max_lag
+
+    def after_step(self, sim: CutHost) -> None:
         """After every step, one of: receive the worker's edit, apply the edit received at the
         previous step, send a due event (each costs up to a few hundred microseconds: one per
         tick keeps every tick short)."""
@@ -204,13 +209,10 @@ class BackgroundCutter:
             poses, self._pose_count = self._poses[: self._pose_count].copy(), 0
             self._send(sim, poses)
 
-    def _event_due(self, sim) -> bool:
+    def _event_due(self, sim: CutHost) -> bool:
         """Whether an interval has passed since the last event (then this step's is the last):
         the worker's Cutter keeps the same clock."""
-        if sim.time - self._last_event < self.settings.interval - 0.5 * sim.dt:
-            return False
-        self._last_event = sim.time
-        return True
+        return self._clock.due(sim.time, sim.dt, self.settings.interval)
 
     def _record_pose(self, sim) -> None:
         """Keep the step's tool pose, or note that the tool has left (the worker ends the
@@ -238,9 +240,8 @@ class BackgroundCutter:
                 shared.release(unlink=True)
             shared = self._resources.shared = SharedPositions(self.model.node_table.capacity)
         shared.array[:n] = sim.state.positions.numpy()[:n]
-        event = WorkerEvent(sim.time, sim.dt, sim.collision, poses, np.array(sim.tool_force),
-                       sim.contact_count, sim.contact_centroid, n, shared.name, shared.capacity,
-                       self._settings_due)
+        event = WorkerEvent(sim.time, sim.dt, sim.collision, poses, sim.contacts,
+                            n, shared.name, shared.capacity, self._settings_due)
         self._settings_due = None
         self._post(("event", event))
         self._busy, self._in_flight = True, 0
@@ -270,7 +271,7 @@ class BackgroundCutter:
         arrived = [edit.positions_now(at_event, now) for edit in edits]  # before any slot is reused
         for edit, positions in zip(edits, arrived):
             edit.apply_to(self.model)
-            sim.apply_topology_edit(edit.new_nodes, positions, edit.explicit_limit)
+            sim.notify_model_changed(edit.change.with_positions(positions))
             self.edits_applied += 1
         self.summary = summary
 

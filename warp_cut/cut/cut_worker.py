@@ -23,12 +23,15 @@ import numpy as np
 import warp as wp
 
 from ..errors import InputError
+from ..sim.contacts import ToolContacts
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel, write_slots
 from ..sim.model import TissueModel
-from ..sim.stability import StepLimit
+from ..sim.model_change import ModelChange
 from ..sim.state import State
-from .cutter import CutSettings, Cutter
+from ..sim.topology_index import INDEXED_TABLES
+from .cutter import Cutter
+from .settings import CutSettings
 
 __all__ = ["TableEdit", "ModelEdit", "CutSummary", "WorkerEvent", "SharedPositions", "ReplicaHost",
            "motion_anchors", "serve", "ANCHORS", "TABLES"]
@@ -50,22 +53,19 @@ class TableEdit:
 
 @dataclass
 class ModelEdit:
-    """One topology edit, as ``Simulator.apply_topology_edit`` takes it, with the table rows.
+    """One topology edit: the changed table rows and the ``ModelChange`` the loop's simulation
+    takes (``Simulator.notify_model_changed``), its stable step worked out on the replica.
 
     Attributes:
         tables: Table name (``node_table``, ...) -> its TableEdit.
-        new_nodes: Slots of the nodes the edit created, shape (k,).
-        new_positions: Their positions [m], shape (k, 3).
-        explicit_limit: The semi-implicit step's limit after the edit.
+        change: What the edit changed, the new nodes where they were at the event.
         topology_version: The model's version after the edit.
         anchors: Per new node, the slots of its nearest nodes alive at the event, (k, ANCHORS).
         weights: Their weights (each row sums to 1), (k, ANCHORS).
     """
 
     tables: dict
-    new_nodes: np.ndarray
-    new_positions: np.ndarray
-    explicit_limit: StepLimit | None
+    change: ModelChange
     topology_version: int
     anchors: np.ndarray = field(default_factory=lambda: np.zeros((0, ANCHORS), np.int64))
     weights: np.ndarray = field(default_factory=lambda: np.zeros((0, ANCHORS)))
@@ -74,14 +74,23 @@ class ModelEdit:
         """The new nodes' positions [m] (k, 3) moved as their anchors moved from ``at_event``
         to ``now`` (both (n, 3), indexed by slot)."""
         if not len(self.anchors):
-            return self.new_positions
+            return self.change.new_positions
         moved = now[self.anchors].astype(np.float64) - at_event[self.anchors]  # (k, ANCHORS, 3)
-        return self.new_positions + np.einsum("ka,kad->kd", self.weights, moved)
+        return self.change.new_positions + np.einsum("ka,kad->kd", self.weights, moved)
 
     def apply_to(self, model: TissueModel) -> None:
-        """Write the changed rows into ``model`` (a replica of the one edited)."""
+        """Write the changed rows into ``model`` (a replica of the one edited), keeping its
+        topology index (if built) up to date."""
+        index = model.index if model.has_index else None
         for name, edit in self.tables.items():
-            getattr(model, name).put_rows(edit.slots, edit.rows, edit.count)
+            table = getattr(model, name)
+            if index is not None and name in INDEXED_TABLES:
+                index.forget_rows(name, edit.slots[edit.slots < table.count])
+            table.put_rows(edit.slots, edit.rows, edit.count)
+            if index is not None and name in INDEXED_TABLES:
+                index.register_rows(name, edit.slots)
+        if index is not None:
+            index.grow(model.node_table.count)
         model.topology_version = self.topology_version
 
 
@@ -120,9 +129,8 @@ class WorkerEvent:
     """Tool poses of the steps since the previous event, the current one last, (k, 7): p0 [m],
     p1 [m], radius [m] (k = 0: no tool)."""
 
-    tool_force: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    contact_count: float = 0.0
-    contact_centroid: np.ndarray | None = None
+    contacts: ToolContacts = field(default_factory=ToolContacts.none)
+    """The loop's tool contacts as of the event's step."""
     node_count: int = 0
     """Node slots whose positions [m] at the event are in the shared buffer."""
     buffer: str = ""
@@ -160,22 +168,25 @@ class SharedPositions:
 
 class ReplicaHost:
     """The worker's CutHost: the replica model's device mirror and a state that holds the
-    positions each event brings; it records every edit the Cutter makes instead of stepping."""
+    positions each event brings; it records every edit the Cutter makes instead of stepping,
+    and follows the stable step with the simulation's own integrator's tracker
+    (``limit_tracker(model)``; None: the loop's solver works it out)."""
 
-    def __init__(self, model: TissueModel):
+    def __init__(self, model: TissueModel, limit_tracker=None):
         self.model = model
         self.device_model = DeviceModel(model, "cpu")
         self.state = State(model.node_table.buffer("points"), device="cpu")
+        self.limits = None if limit_tracker is None else limit_tracker(model)
         self.edits: list[ModelEdit] = []
         self.tool_pose: Tool | None = None
+        self.contacts = ToolContacts.none()
         self.shared: SharedPositions | None = None
 
     def load(self, event: WorkerEvent) -> None:
         """Take the loop's step: its time, tool and positions."""
         self.time, self.dt, self.collision = event.time, event.dt, event.collision
         self.tool_pose = event.tools()[-1] if len(event.poses) else None
-        self.tool_force, self.contact_count = event.tool_force, event.contact_count
-        self.contact_centroid = event.contact_centroid
+        self.contacts = event.contacts
         if self.shared is None or self.shared.name != event.buffer:
             if self.shared is not None:
                 self.shared.release(unlink=False)
@@ -185,24 +196,24 @@ class ReplicaHost:
         self.at_event = self.shared.array[:n].astype(np.float64)
         self.alive_at_event = np.flatnonzero(self.model.active[:n])
 
-    def apply_topology_edit(self, new_nodes, new_positions, explicit_limit=None) -> None:
-        """Record the edit (the changed rows of every table), then mirror it here."""
+    def notify_model_changed(self, change: ModelChange) -> None:
+        """Record the edit (the changed rows of every table, the change with its stable step),
+        then mirror it here."""
         tables = {}
         for name in TABLES:
             table = getattr(self.model, name)
             slots = table.changed_slots()
             if len(slots):
                 tables[name] = TableEdit(slots, table.rows(slots), table.count)
-        new_nodes = np.asarray(new_nodes, np.int64)
-        new_positions = np.asarray(new_positions, np.float64).reshape(-1, 3)
-        anchors, weights = motion_anchors(self.at_event, self.alive_at_event, new_positions)
-        self.edits.append(ModelEdit(tables, new_nodes, new_positions, explicit_limit,
-                                    self.model.topology_version, anchors, weights))
+        if self.limits is not None:
+            change = change.with_limit(self.limits.update(change))
+        anchors, weights = motion_anchors(self.at_event, self.alive_at_event, change.new_positions)
+        self.edits.append(ModelEdit(tables, change, self.model.topology_version, anchors, weights))
         self.device_model.sync()
         capacity = self.model.node_table.capacity
         if self.state.node_count < capacity:
             self.state = self.state.grown(capacity)
-        write_slots(self.state.positions, new_nodes, new_positions)
+        write_slots(self.state.positions, change.new_nodes, change.new_positions)
 
 
 _ON_NODE = 1e-12
@@ -241,12 +252,12 @@ def _nearest_around(points: np.ndarray, alive: np.ndarray, targets: np.ndarray, 
         margin *= 2.0
 
 
-def serve(conn, settings: CutSettings, cpus: set[int] | None, log_level: int) -> None:
+def serve(conn, settings: CutSettings, cpus: set[int] | None, log_level: int, limit_tracker=None) -> None:
     """The worker's loop: receive the model, build the Cutter, then answer events and calls
     until told to stop; each answer carries the seconds the worker spent on it. Ctrl-C reaches
     the loop's whole process group: the worker leaves it to the loop, which stops it (or it ends
     when the pipe closes). Warp logs at the loop's level (``log_level``: a quiet CLI stays
-    quiet)."""
+    quiet); ``limit_tracker`` follows the stable step on the replica (``ReplicaHost``)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     wp.config.log_level = log_level
     if cpus:
@@ -256,7 +267,7 @@ def serve(conn, settings: CutSettings, cpus: set[int] | None, log_level: int) ->
     except EOFError:  # the loop has gone
         return
     try:
-        host = ReplicaHost(model)
+        host = ReplicaHost(model, limit_tracker)
         cutter = Cutter(model, settings, "cpu")
     except InputError as err:
         conn.send(("input_error", str(err)))

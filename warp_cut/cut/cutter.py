@@ -29,8 +29,6 @@ carried to the node that takes its place on the same side.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 import warp as wp
@@ -40,85 +38,26 @@ from ..kernels import cutting as cut_kernels
 from ..kernels import scatter
 from ..mesh.checks import cuttable_problems
 from ..sim.control import Tool
-from ..sim.device_model import DeviceModel
 from ..sim.model import TissueModel
-from ..sim.stability import ElementRates, StepLimit
-from ..sim.state import State
 from .classes import NodeClass
 from .contact import BladeContact
+from .events import EventClock
 from .flips import flip_slivers, flip_to_delaunay
+from .host import CutHost
 from .incision import Incision
 from .lip_slots import lips_inside
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
 from .remesh import fill_hole
+from .settings import CutSettings
 from .surface import Crossing
 from .swept_volume import HitLists, SweptVolume
 from .topology import NodePositions, TopologyEditor
 from .wound_links import align_links, carry_links, open_links
 
-__all__ = ["CutSettings", "Cutter", "CutHost", "STAGES"]
+__all__ = ["Cutter", "STAGES"]
 
 STAGES = ("stage1_swept_volume", "stage2_bezier", "stage3_matching", "device_update")
 """Names of the timed parts of a cut event (latency in metrics.json)."""
-
-
-@dataclass(frozen=True)
-class CutSettings:
-    """Cutting parameters (SI). None means the documented default.
-
-    sweep_radius: radius of the swept circle [m] (default: the tool radius).
-    interval: time between cut events [s] (default 1/60, one per rendered frame).
-    force_threshold: cutting starts once |tool force| >= this [N] (default 0: any contact).
-    spacing: lip station spacing [m] (default: median spring rest length).
-    tolerance: Bezier fit tolerance [m] (default 0.1 x spacing).
-    lip_offset: half the initial slit width [m] (default 0.25 x sweep radius).
-    """
-
-    sweep_radius: float | None = None
-    interval: float = 1.0 / 60.0
-    force_threshold: float = 0.0
-    spacing: float | None = None
-    tolerance: float | None = None
-    lip_offset: float | None = None
-
-    def __post_init__(self):
-        for name in ("sweep_radius", "spacing", "tolerance", "lip_offset"):
-            v = getattr(self, name)
-            if v is not None and not (np.isfinite(v) and v > 0):
-                raise InputError(f"cutting.{name} must be > 0 m, got {v}")
-        if not (np.isfinite(self.interval) and self.interval >= 0):
-            raise InputError(f"cutting.interval must be >= 0 s, got {self.interval}")
-        if not (np.isfinite(self.force_threshold) and self.force_threshold >= 0):
-            raise InputError(f"cutting.force_threshold must be >= 0 N, got {self.force_threshold}")
-
-
-class CutHost(Protocol):
-    """What the Cutter needs from the simulation it cuts; ``warp_cut.Simulator`` provides it.
-
-    Attributes:
-        time: Simulated time at the end of the last step [s].
-        dt: The step [s].
-        tool_pose: The tool at the end of the last step, or None.
-        collision: Whether the tool touches the tissue at all.
-        tool_force: Reaction of the tissue on the tool over the last step [N], shape (3,).
-        contact_count: Mean number of nodes in contact per substep over the last step.
-        contact_centroid: Mean position of the nodes in contact [m], shape (3,), or None.
-        state: The device state; the cut reads ``state.positions``.
-        device_model: The device mirror of the model; the cut reads node flags and springs.
-    """
-
-    time: float
-    tool_pose: Tool | None
-    collision: bool
-    tool_force: np.ndarray
-    contact_count: float
-    contact_centroid: np.ndarray | None
-    state: State
-    device_model: DeviceModel
-
-    def apply_topology_edit(self, new_nodes: np.ndarray, new_positions: np.ndarray,
-                            explicit_limit: StepLimit) -> None:
-        """Mirror the model's latest edit on the device and update the stable step."""
 
 
 class Cutter:
@@ -146,14 +85,13 @@ class Cutter:
             raise InputError("this mesh cannot be cut (a cut needs a manifold, consistently wound "
                              "mesh without duplicate or degenerate triangles): " + "; ".join(problems))
         self.editor = TopologyEditor(model)
-        self.element_rates = ElementRates(model)
         lengths = model.rest_lengths
         self.spacing = self.settings.spacing or float(np.median(lengths))
         self.edge_reach = 1.5 * float(lengths.max()) if len(lengths) else self.spacing
         """How far from the swept capsule a spring may start and still cross it [m]."""
         self.incisions: list[Incision] = []
         self.current: Incision | None = None
-        self._last_event = -np.inf
+        self._clock = EventClock()
         self._poses: list[Tool] = []
         """Tool poses of the steps since the last cut event (where the blade entered)."""
         self._tip_before: np.ndarray | None = None
@@ -185,9 +123,8 @@ class Cutter:
             self._poses.clear()
             self._tip_before = None
             self.end_incision(sim)
-        if sim.time - self._last_event < self.settings.interval - 0.5 * sim.dt:  # the step nearest
+        if not self._clock.due(sim.time, sim.dt, self.settings.interval):
             return
-        self._last_event = sim.time
         self._retry_holes(sim)
         if not cutting:
             if not any(inc.open_chains for inc in self.incisions):
@@ -224,7 +161,7 @@ class Cutter:
         """Start an incision if the axis crosses the skin (and the tool pushes hard enough),
         at the first of ``poses`` whose axis crossed it, then cut on to where it is now."""
         tool = poses[-1]
-        if np.linalg.norm(sim.tool_force) < self.settings.force_threshold:
+        if np.linalg.norm(sim.contacts.force) < self.settings.force_threshold:
             return
         x = self._positions_view(sim)
         nodes, corners = self.contact.skin_near(sim, tool, x)
@@ -291,7 +228,7 @@ class Cutter:
         editor.begin()
         positions = NodePositions(self._positions_view(sim))
         candidates = set(self.new_triangles)
-        prestressed = bool(self.model.prestress_tension)
+        prestressed = self.editor.policy.prestressed
         delaunay = flip_to_delaunay(editor, candidates, self.model.points, positions) if prestressed else 0
         slivers = flip_slivers(editor, candidates, positions)
         settle = prestressed and (self._membrane_unsettled or delaunay + slivers > 0)
@@ -450,17 +387,30 @@ class Cutter:
         self.new_triangles.difference_update(report.deleted_triangles)
 
     def _apply(self, sim: CutHost, report, positions: NodePositions) -> None:
-        """Update the explicit step's limit node by node (rows of the nodes whose springs or
-        links changed), then let the host mirror the edit and place the new nodes."""
+        """Tell the host what the edit changed (``ModelChange``), with the new nodes where
+        ``positions`` placed them."""
         placed = np.array(report.new_nodes, dtype=np.int64)
-        changed = set(self.editor.touched_nodes)
-        link_pairs = self.model.link_table.column("pairs")
-        for slot in list(report.residual_links) + list(report.carried_links) + list(report.moved_links):
-            changed.update(int(v) for v in link_pairs[slot])
-        changed |= {int(v) for v in report.deleted_nodes}
-        self.element_rates.update(changed, self.editor)
-        sim.apply_topology_edit(placed, positions[placed] if len(placed) else np.zeros((0, 3)),
-                                self.element_rates.limit())
+        sim.notify_model_changed(self.editor.model_change(
+            positions[placed] if len(placed) else np.zeros((0, 3))))
+
+    # ----------------------------------------------------------------- a driver in the step
+    def flush(self, sim: CutHost) -> None:
+        """Nothing is in flight: every event's edit is applied in its step."""
+
+    def close(self) -> None:
+        """Nothing outlives the simulation."""
+
+    def call(self, sim: CutHost, name: str, *args):
+        """``name(*args)``, or the attribute ``name`` (as ``BackgroundCutter.call`` asks its worker)."""
+        value = getattr(self, name)
+        return value(*args) if callable(value) else value
+
+    @property
+    def incision_controls(self) -> np.ndarray | None:
+        """Control points [m] of the latest incision's Bezier chain, (3 s + 1, 3) for s segments
+        (end points shared), or None while there is no incision."""
+        curves = [inc.curve for inc in self.incisions if inc.curve is not None]
+        return curves[-1].control_points_flat() if curves else None
 
     # ----------------------------------------------------------------- measures
     def incision_width(self, positions: np.ndarray) -> float:

@@ -36,7 +36,7 @@ REACH = 2.0
 (Gaussian weights of one spacing)."""
 
 
-def lip_placement(model, positions: np.ndarray, incision: Incision, u: float, side: int
+def lip_placement(editor, positions: np.ndarray, incision: Incision, u: float, side: int
                   ) -> tuple[np.ndarray, np.ndarray]:
     """(current, rest) position [m] (3,) of a new lip node of the station at ``u`` [m] on
     ``side`` (+1 left, -1 right, 0 the slit's start or end). ``positions``: the current node
@@ -44,9 +44,9 @@ def lip_placement(model, positions: np.ndarray, incision: Incision, u: float, si
     an edit: the nodes it has made so far count too). Both are ``incision.lip_position`` but
     in a prestressed sheet (module docstring)."""
     point = incision.lip_position(u, side)
-    if model.prestress_tension <= 0.0:
+    if not editor.policy.prestressed:
         return point, point
-    shift = _side_displacements(model, positions, incision, u)
+    shift = _side_displacements(editor.model, positions, incision, u)
     if shift is None:
         return point, point
     common = 0.5 * (shift[0] + shift[1])

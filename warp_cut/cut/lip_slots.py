@@ -203,7 +203,7 @@ class LipSlots:
                 key = (station, side)
                 if key not in here:
                     u = inc.station_u[station] if station >= 0 else (0.0 if station == -1 else inc.length)
-                    point, rest = lip_placement(self.editor.model, self.positions, inc, u, side)
+                    point, rest = lip_placement(self.editor, self.positions, inc, u, side)
                     here[key] = self._snap(spare, point, side, snap) if station >= 0 else -1
                     if here[key] < 0:
                         here[key] = PLACEHOLDER + len(self._proposed)

@@ -41,7 +41,7 @@ def _triangulate(chain, lips, editor, chart, positions, min_angle_deg, defer_sli
         return all(v in lip_set for v in tri)
 
     candidates = []  # (smallest angle [deg], triangles)
-    rest = slots.rest_positions() if editor.model.prestress_tension else None
+    rest = slots.rest_positions() if editor.policy.prestressed else None
     if lips:
         strip = zip_strip(chain, lips, chart, UP, lips_only)
         if _acceptable(strip, editor, chart, UP, slots, lips_only):

@@ -103,7 +103,7 @@ class SweptVolume:
         events leave it, and the wound's width would depend on the event interval.
         None in the prestress model."""
         model = self.model
-        if model.material.residual_stress_model != "links":
+        if not self.editor.policy.makes_links:
             return []
         table = model.spring_table
         pairs, rest = table.column("pairs"), table.column("rest_length")

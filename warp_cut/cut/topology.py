@@ -6,8 +6,10 @@ nodes survive makes a residual-stress link (SPEC section 1) and deletes the tria
 bounds; new triangles bring their missing edge springs; lumped masses of every node touched
 are recomputed from its triangles; nodes left without any triangle are removed as fragments; a
 sheet that bends gets the hinges of the edges whose triangles changed made again, at the
-current shape (``warp_cut.sim.bending``). Every operation costs what it touches: adjacency
-(node -> springs, triangles, links, hinges) is kept up to date instead of being rebuilt.
+current shape (``warp_cut.sim.bending``); the springs the edit changed get what the material
+says (its ``MaterialPolicy``, chosen once). Every operation costs what it touches: the model's
+adjacency (``TissueModel.index``: node -> springs, triangles, links, hinges) is kept up to date
+instead of being rebuilt.
 """
 
 from __future__ import annotations
@@ -18,15 +20,11 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh.geometry import triangle_areas
-from ..sim.prestress import prestressed_rest_lengths
-from ..sim.stiffness import membrane_modulus, van_gelder_stiffness
+from ..sim.material_policy import material_policy
+from ..sim.model_change import ModelChange
 from .classes import NodeClass, SpringClass
 
-__all__ = ["TopologyEditor", "EditReport", "NodePositions", "MAX_PRESTRAIN"]
-
-MAX_PRESTRAIN = 0.5
-"""Largest |f / (k L)| a spring a cut makes or changes in a prestressed sheet is given
-(``TopologyEditor._prestress``)."""
+__all__ = ["TopologyEditor", "EditReport", "NodePositions"]
 
 
 class NodePositions:
@@ -91,31 +89,31 @@ class TopologyEditor:
 
     def __init__(self, model):
         self.model = model
-        n = model.node_table.count
-        self.node_springs: list[set] = [set() for _ in range(n)]
-        self.node_triangles: list[set] = [set() for _ in range(n)]
-        self.node_links: list[set] = [set() for _ in range(n)]
-        for slot in model.spring_table.live_slots():
-            i, j = model.spring_table.column("pairs")[slot]
-            self.node_springs[i].add(int(slot))
-            self.node_springs[j].add(int(slot))
-        for slot in model.triangle_table.live_slots():
-            for v in model.triangle_table.column("corners")[slot]:
-                self.node_triangles[v].add(int(slot))
-        for slot in model.link_table.live_slots():
-            i, j = model.link_table.column("pairs")[slot]
-            self.node_links[i].add(int(slot))
-            self.node_links[j].add(int(slot))
-        self.node_hinges: list[set] = [set() for _ in range(n)]
-        self.edge_hinges: dict[tuple[int, int], int] = {}
-        for slot in model.hinge_table.live_slots():
-            self._register_hinge(int(slot))
+        self.index = model.index
+        """The model's adjacency, kept up to date by every operation here."""
+        self.policy = material_policy(model)
+        """How changed springs get their stiffness and rest length (chosen once)."""
         self.report = EditReport()
         self._touched: set[int] = set()
         self._settling: set[int] = set()
         """Springs to take the sheet's modulus at ``finish`` (``settle_membrane``)."""
         self.hinge_nodes_changed: set[int] = set()
         """Nodes of the hinges the current edit made or deleted."""
+
+    @property
+    def node_springs(self) -> list[set]:
+        """Live spring slots at each node (``TopologyIndex.node_springs``)."""
+        return self.index.node_springs
+
+    @property
+    def node_triangles(self) -> list[set]:
+        """Live triangle slots at each node (``TopologyIndex.node_triangles``)."""
+        return self.index.node_triangles
+
+    @property
+    def node_links(self) -> list[set]:
+        """Live residual-link slots at each node (``TopologyIndex.node_links``)."""
+        return self.index.node_links
 
     # ------------------------------------------------------------------ queries
     @property
@@ -125,15 +123,11 @@ class TopologyEditor:
 
     def spring_between(self, i: int, j: int) -> int | None:
         """The live spring slot joining nodes i and j, or None."""
-        pairs = self.model.spring_table.column("pairs")
-        for slot in self.node_springs[i]:
-            a, b = pairs[slot]
-            if (a == j) or (b == j):
-                return slot
-        return None
+        return self.index.spring_between(i, j)
 
     def triangles_with_edge(self, i: int, j: int) -> set:
-        return self.node_triangles[i] & self.node_triangles[j]
+        """Live triangle slots holding both nodes i and j."""
+        return self.index.triangles_with_edge(i, j)
 
     # ------------------------------------------------------------------ edit
     def begin(self) -> None:
@@ -148,9 +142,8 @@ class TopologyEditor:
         for slot in {int(s) for s in slots}:
             if not table.alive[slot]:
                 continue
-            for v in corners[slot]:
-                self.node_triangles[v].discard(slot)
-                self._touched.add(int(v))
+            self.index.remove_triangle(slot, corners[slot])
+            self._touched.update(int(v) for v in corners[slot])
             self.report.deleted_triangle_corners.append(tuple(int(v) for v in corners[slot]))
             table.kill([slot])
             self.report.deleted_triangles.append(slot)
@@ -162,7 +155,7 @@ class TopologyEditor:
         with ``pending`` given, its (slot, i, j, rest length [m]) is appended there instead,
         for the caller to make the link later (``make_links``)."""
         model = self.model
-        residual = residual and model.material.residual_stress_model == "links"
+        residual = residual and self.policy.makes_links
         table = model.spring_table
         pairs = table.column("pairs")
         rest = table.column("rest_length")
@@ -179,8 +172,7 @@ class TopologyEditor:
                 else:
                     link_pairs.append((i, j))
                     link_rest.append(rest[slot])
-            self.node_springs[i].discard(slot)
-            self.node_springs[j].discard(slot)
+            self.index.remove_spring(slot, i, j)
             self._touched.update((i, j))
             table.kill([slot])
             self.report.deleted_springs.append(slot)
@@ -200,10 +192,8 @@ class TopologyEditor:
         if not fresh:
             return
         pairs, rest_lengths = [p for p, _ in fresh], [r for _, r in fresh]
-        new = self.model.add_residual_links(pairs, rest_lengths)
-        for slot, (i, j) in zip(new, pairs):
-            self.node_links[int(i)].add(int(slot))
-            self.node_links[int(j)].add(int(slot))
+        new = self.model.add_residual_links(pairs, rest_lengths)  # registers them in the index
+        for i, j in pairs:
             self._touched.update((int(i), int(j)))
         self.report.residual_links.extend(int(s) for s in new)
 
@@ -224,8 +214,7 @@ class TopologyEditor:
                     self.report.orphaned_links.append((keep, gone, force, smoothing))
             if i in lost and j in lost:
                 self.report.severed_links.append((i, j, force, smoothing))
-            self.node_links[i].discard(slot)
-            self.node_links[j].discard(slot)
+            self.index.remove_link(slot, i, j)
             self._touched.update((i, j))  # their stable-step rows change
             table.kill([slot])
             self.report.deleted_links.append(slot)
@@ -253,11 +242,7 @@ class TopologyEditor:
         slots = model.node_table.append(
             points=pts, masses=np.full(k, 1.0), damping=np.full(k, model.material.damping),
             pinned=np.zeros(k, bool), node_class=np.full(k, node_class, np.int8))
-        for _ in range(k):
-            self.node_springs.append(set())
-            self.node_triangles.append(set())
-            self.node_links.append(set())
-            self.node_hinges.append(set())
+        self.index.grow(model.node_table.count)
         self.report.new_nodes.extend(int(s) for s in slots)
         self._touched.update(int(s) for s in slots)
         return slots
@@ -267,8 +252,7 @@ class TopologyEditor:
         ``smoothing`` [m] (a link carried over from a deleted node)."""
         slot = int(self.model.link_table.append(pairs=np.array([[i, j]]), force=[force],
                                                 smoothing=[smoothing])[0])
-        self.node_links[i].add(slot)
-        self.node_links[j].add(slot)
+        self.index.add_link(slot, int(i), int(j))
         self._touched.update((int(i), int(j)))
         self.report.carried_links.append(slot)
         return slot
@@ -276,12 +260,11 @@ class TopologyEditor:
     def move_link(self, slot: int, i: int, j: int) -> None:
         """Make residual link ``slot`` join nodes i and j instead (same force and smoothing)."""
         table = self.model.link_table
-        for v in table.column("pairs")[slot]:
-            self.node_links[int(v)].discard(slot)
-            self._touched.add(int(v))  # its stable-step row changes
+        a, b = (int(v) for v in table.column("pairs")[slot])
+        self.index.remove_link(slot, a, b)
+        self._touched.update((a, b))  # their stable-step rows change
         table.set("pairs", [slot], np.array([[i, j]]))
-        self.node_links[i].add(slot)
-        self.node_links[j].add(slot)
+        self.index.add_link(slot, int(i), int(j))
         self._touched.update((int(i), int(j)))
         self.report.moved_links.append(slot)
 
@@ -298,8 +281,7 @@ class TopologyEditor:
         slot = int(self.model.spring_table.append(
             pairs=np.array([[a, b]]), rest_length=[length],
             stiffness=[self.model.material.stiffness], spring_class=[spring_class])[0])
-        self.node_springs[a].add(slot)
-        self.node_springs[b].add(slot)
+        self.index.add_spring(slot, a, b)
         self._touched.update((a, b))
         self.report.new_springs.append(slot)
         return slot
@@ -312,9 +294,8 @@ class TopologyEditor:
             self.add_spring(i, j, positions, edge_class)
         area = float(triangle_areas(positions[[a, b, c]], [[0, 1, 2]])[0])
         slot = int(self.model.triangle_table.append(corners=np.array([[a, b, c]]), area=[area])[0])
-        for v in (a, b, c):
-            self.node_triangles[v].add(slot)
-            self._touched.add(v)
+        self.index.add_triangle(slot, (a, b, c))
+        self._touched.update((a, b, c))
         self.report.new_triangles.append(slot)
         return slot
 
@@ -360,19 +341,10 @@ class TopologyEditor:
 
     def _refresh_membrane(self) -> None:
         """Stiffness and rest lengths of the springs this edit changed, and of those
-        ``settle_membrane`` named: van Gelder's stiffness with material springs (for the named
-        ones whatever the model), the prestress's rest lengths in a prestressed sheet."""
-        model = self.model
-        material, prestressed = model.stiffness_model == "material", bool(model.prestress_tension)
-        settling = {s for s in self._settling if model.spring_table.alive[s]}
-        if not (material or prestressed or settling):
-            return
-        changed = set(self._changed_springs()) if material or prestressed else set()
-        stiffened = sorted((changed if material else set()) | settling)
-        if stiffened:
-            self._refresh_membrane_stiffness(stiffened, self._spring_lengths(stiffened))
-        if prestressed:
-            self._prestress(sorted(changed | settling))
+        ``settle_membrane`` named, as the material policy says (``warp_cut.sim.material_policy``)."""
+        alive = self.model.spring_table.alive
+        settling = sorted(s for s in self._settling if alive[s])
+        self.policy.refresh(self._changed_springs, settling)
 
     @staticmethod
     def _edges_of(corners) -> set[tuple[int, int]]:
@@ -386,12 +358,6 @@ class TopologyEditor:
         corners = list(self.report.deleted_triangle_corners)
         corners += [table.column("corners")[t] for t in self.report.new_triangles if table.alive[t]]
         return self._edges_of(corners)
-
-    def _register_hinge(self, slot: int) -> None:
-        a, b, k, l = (int(v) for v in self.model.hinge_table.column("nodes")[slot])
-        for v in (a, b, k, l):
-            self.node_hinges[v].add(slot)
-        self.edge_hinges[(a, b)] = slot
 
     def _hinge_of_edge(self, i: int, j: int) -> tuple[int, int, int, int] | None:
         """[i, j, k, l] of the edge i < j if exactly two live triangles share it, wound apart."""
@@ -413,12 +379,12 @@ class TopologyEditor:
         """Hinges of the edges whose triangles changed: kept where the edge still joins the same
         two triangles' corners, else deleted and made again at ``positions`` (where two
         triangles share the edge), as new springs take their current length (outside a
-        prestressed sheet, ``_prestress``)."""
+        prestressed sheet, ``PrestressedSprings``)."""
         model = self.model
         table = model.hinge_table
         fresh = []
         for i, j in sorted(self._changed_edges()):
-            old = self.edge_hinges.get((i, j))
+            old = self.index.edge_hinges.get((i, j))
             hinge = self._hinge_of_edge(i, j) if model.active[i] and model.active[j] else None
             if old is not None and hinge is not None and tuple(table.column("nodes")[old]) == hinge:
                 continue
@@ -427,16 +393,13 @@ class TopologyEditor:
             if hinge is not None:
                 fresh.append(hinge)
         if fresh:
-            for slot in model.add_hinges(np.array(fresh, dtype=np.int64), positions):
-                self._register_hinge(int(slot))
+            for slot in model.add_hinges(np.array(fresh, dtype=np.int64), positions):  # indexed there
                 self.hinge_nodes_changed.update(int(v) for v in table.column("nodes")[slot])
                 self.report.new_hinges.append(int(slot))
 
     def _kill_hinge(self, slot: int) -> None:
         nodes = [int(v) for v in self.model.hinge_table.column("nodes")[slot]]
-        for v in nodes:
-            self.node_hinges[v].discard(slot)
-        del self.edge_hinges[(nodes[0], nodes[1])]
+        self.index.remove_hinge(slot, nodes)
         self.hinge_nodes_changed.update(nodes)
         self.model.hinge_table.kill([slot])
         self.report.deleted_hinges.append(slot)
@@ -453,7 +416,7 @@ class TopologyEditor:
 
     def settle_membrane(self, triangles) -> None:
         """At ``finish``, give the springs on the edges of ``triangles`` (live slots) the
-        sheet's modulus for the triangles they border then (``_refresh_membrane_stiffness``)
+        sheet's modulus for the triangles they border then (``MaterialPolicy.stiffen``)
         and, in a prestressed sheet, the rest lengths that carry its tension with that
         stiffness: for the springs of a finished cut, whose triangles are final (with the
         paper's constant K every new spring is K until then, which is the lattice's modulus
@@ -462,50 +425,18 @@ class TopologyEditor:
         corners = [table.column("corners")[t] for t in triangles if table.alive[t]]
         self._settling.update(self._springs_on(self._edges_of(corners)))
 
-    def _spring_lengths(self, slots: list[int]) -> np.ndarray:
-        """The lengths [m] (k,) van Gelder's stiffness takes: the rest shape's in a prestressed
-        sheet, else the springs' rest lengths."""
-        if self.model.prestress_tension:
-            return self._rest_shape_lengths(slots)
-        return self.model.spring_table.column("rest_length")[slots]
-
-    def _refresh_membrane_stiffness(self, slots: list[int], lengths: np.ndarray) -> None:
-        """Give the springs ``slots`` their van Gelder stiffness from the triangles they now
-        border and their ``lengths`` [m] (k,) (``warp_cut.sim.stiffness``) for the sheet's
-        modulus ``membrane_modulus`` (E t with material springs, 2 K / sqrt(3) with the
-        paper's constant K: K itself on an equilateral pair); one of length 0 keeps its own."""
-        model = self.model
-        areas, pairs = model.triangle_table.column("area"), model.spring_table.column("pairs")
-        keep = np.asarray(lengths) > 0
-        slots, lengths = [slot for slot, ok in zip(slots, keep) if ok], np.asarray(lengths)[keep]
-        if slots:
-            area_sums = [sum(areas[t] for t in self.triangles_with_edge(*(int(v) for v in pairs[slot])))
-                         for slot in slots]
-            modulus = membrane_modulus(model.material, model.stiffness_model)
-            k = van_gelder_stiffness(modulus, np.array(area_sums), lengths ** 2)
-            model.spring_table.set("stiffness", slots, k)
-
-    def _rest_shape_lengths(self, slots: list[int]) -> np.ndarray:
-        """Lengths [m] (k,) of springs ``slots`` between their nodes' rest positions."""
-        pairs = self.model.spring_table.column("pairs")[slots]
-        points = self.model.points
-        return np.linalg.norm(points[pairs[:, 1]] - points[pairs[:, 0]], axis=1)
-
-    def _prestress(self, slots: list[int]) -> None:
-        """Rest lengths of the springs ``slots`` (those whose triangles changed in this edit)
-        that carry the model's membrane tension in the rest shape, as ``apply_prestress`` gives
-        the original springs (``warp_cut.sim.prestress.prestressed_rest_lengths``, from the
-        nodes' rest positions and the triangles each spring borders now). So a new spring
-        carries the tension its neighbours carry, and an edge the cut left on one triangle
-        carries its side's share only (the traction across the cut is released). f / (k L) is
-        kept within +-``MAX_PRESTRAIN``: a triangle nearly flat in the rest shape would
-        otherwise give a rest length near 0, or a long one."""
-        if not slots:
-            return
-        model = self.model
-        pairs = model.spring_table.column("pairs")[slots]
-        triangles = sorted({t for i, j in pairs for t in self.triangles_with_edge(int(i), int(j))})
-        corners = model.triangle_table.column("corners")[triangles].reshape(-1, 3)
-        rest = prestressed_rest_lengths(model.points, corners, pairs, model.spring_table.column("stiffness")[slots],
-                                        model.prestress_tension, max_ratio=MAX_PRESTRAIN)
-        model.spring_table.set("rest_length", slots, rest)
+    # ------------------------------------------------------------------ the notice
+    def model_change(self, new_positions) -> ModelChange:
+        """The ``ModelChange`` of the edit just finished, its new nodes at ``new_positions``
+        (k, 3) [m] (in the order of ``report.new_nodes``): the nodes whose springs, triangles,
+        links or mass changed (with the ends of the links it made, carried or moved, and the
+        nodes it deleted), what it deleted, and the nodes of the hinges it changed."""
+        report = self.report
+        link_pairs = self.model.link_table.column("pairs")
+        touched = set(self._touched) | {int(v) for v in report.deleted_nodes}
+        for slot in list(report.residual_links) + list(report.carried_links) + list(report.moved_links):
+            touched.update(int(v) for v in link_pairs[slot])
+        return ModelChange.of(new_nodes=report.new_nodes, new_positions=new_positions, touched_nodes=touched,
+                              deleted_nodes=report.deleted_nodes, deleted_springs=report.deleted_springs,
+                              deleted_triangles=report.deleted_triangles, deleted_links=report.deleted_links,
+                              hinge_nodes=self.hinge_nodes_changed)

@@ -150,11 +150,11 @@ def run_case(angle_deg: float, speed: float, *, t0: float = 2.0, rate: float = 1
     sim = Simulator(model, dt=1.0 / rate, gravity=None, residual_stress=False, device=device)
     steps_before = max(0, int(t0 * rate) - 2)
     sim.step(steps_before, tool=path)
-    while sim.first_contact_time is None and sim.time < t0 + 10.0 / rate:
+    while sim.contacts.first_time is None and sim.time < t0 + 10.0 / rate:
         sim.step(1, tool=path)
-    return CollisionCase(angle_deg, speed, t0, point, sim.first_contact_time,
-                         sim.first_contact_point, sim.first_contact_time_exact,
-                         sim.first_contact_point_exact)
+    contacts = sim.contacts
+    return CollisionCase(angle_deg, speed, t0, point, contacts.first_time, contacts.first_point,
+                         contacts.first_time_exact, contacts.first_point_exact)
 
 
 def run_experiment(angles=DEFAULT_ANGLES, speeds=(0.01,), *, t0: float = 2.0,

@@ -30,11 +30,11 @@ import sys
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..cut.background import BackgroundCutter
 from ..errors import InputError, WarpCutError
 from ..io.usd_export import DEFAULT_CHUNK_FRAMES
 from ..runner import prepare_simulation
@@ -135,15 +135,20 @@ class LiveCut:
         speed: largest tip speed of the scalpel [m/s]; turn_rate: of its axis [deg/s].
         view_rate: ViewFrames published per second of wall time while running [1/s].
         chunk_frames: frames per USD chunk file of the recording.
-        cut_in_background: run the cut in a worker process (``Simulator(cut_in_background=...)``):
-            a cut event no longer stalls the real-time loop; True, or the ``max_lag`` in steps.
+        cut_in_background: run the cut in a worker process (``CutSettings(worker=True)``): a
+            cut event no longer stalls the real-time loop.
+        max_lag: with ``cut_in_background``, the steps an event may stay in flight before the
+            loop waits for its edit (None: never wait; 1: each edit two steps after its event).
+        clock: the wall clock [s] the real-time thread paces the simulation by and measures its
+            real-time factor with (``time.perf_counter``; tests pass a clock they move by hand).
 
     Raises InputError (SceneError, ToolStartsInside) for a bad scene or overrides.
     """
 
     def __init__(self, scene=None, overrides=(), *, speed: float = 0.02, turn_rate: float = 90.0,
                  view_rate: float = 30.0, chunk_frames: int = DEFAULT_CHUNK_FRAMES,
-                 cut_in_background: bool | int = False):
+                 cut_in_background: bool = False, max_lag: int | None = None,
+                 clock: Callable[[], float] = time.perf_counter):
         base = load_scene(scene, list(overrides))
         if base.tool is None:
             raise InputError(f"{base.path}: a live run needs a [tool] in the scene (its radius, "
@@ -155,7 +160,7 @@ class LiveCut:
         self._dt = base.solver.dt if base.solver.dt != "auto" else 1e-3
         self._frame_steps = max(1, math.ceil(1.0 / (base.fps * self._dt) - 1e-9))
         self._chunk_frames = chunk_frames
-        self._cut_in_background = cut_in_background
+        self._cut_in_background, self._max_lag = bool(cut_in_background), max_lag
         self._speed, self._turn_rate = speed, turn_rate
         self.view_rate = float(view_rate)
         self.params = LiveParameters.from_scene(base)
@@ -166,8 +171,8 @@ class LiveCut:
         self._lock = threading.RLock()
         self._commands: queue.Queue = queue.Queue()
         self._looper = LoopThread(self._loop, "warp-cut-live-simulation")
-        self._clock = RealTimeClock()
-        self._meter = RateMeter()
+        self._clock = RealTimeClock(now=clock)
+        self._meter = RateMeter(now=clock)
         self._view: ViewFrame | None = None
         self._view_seq = 0
         self._last_publish = -math.inf
@@ -184,7 +189,8 @@ class LiveCut:
     def _build(self, params: LiveParameters) -> _Run:
         """A new simulation of the scene with ``params``, recording from frame 0."""
         scene = self._load(params)
-        model, sim, path, steps_per_frame = prepare_simulation(scene, self._cut_in_background)
+        model, sim, path, steps_per_frame = prepare_simulation(
+            scene, cut_in_background=self._cut_in_background, max_lag=self._max_lag)
         start = ScalpelPose.from_tool(path.pose_at(0.0))
         motion = ToolMotion(start, length=scene.tool.length, radius=scene.tool.radius,
                             speed=self._speed, turn_rate=self._turn_rate, time=sim.time)
@@ -370,8 +376,7 @@ class LiveCut:
                 raise InputError(f"nothing saved: {self.error}; reset or apply new parameters first")
             if run.steps_in_frame:
                 self._step(run.steps_per_frame - run.steps_in_frame)
-            if isinstance(run.sim.cutter, BackgroundCutter):  # the edit in flight, in the files
-                run.sim.cutter.flush(run.sim)
+            run.sim.cutter.flush(run.sim)  # an edit in flight (cut in a worker), in the files
             extra = {"parameters": dataclasses.asdict(self.params), "overrides": self._overrides,
                      "cutting": self.cutting, "behind_s": self._clock.behind,
                      "scalpel_speed_m_s": self._speed}

@@ -20,6 +20,7 @@ from .bending import dihedral_angles, hinge_caps, hinge_stiffness, hinges_of
 from .material import Material
 from .prestress import prestressed_rest_lengths
 from .slots import SlotTable
+from .topology_index import TopologyIndex
 
 __all__ = ["TissueModel", "triangle_edges", "lumped_masses", "boundary_nodes"]
 
@@ -83,11 +84,13 @@ class TissueModel:
         ``stiffness`` k_h [N m], ``cap`` [N/m] (``hinge_caps``); empty without bending.
     material: the Material the model was built with.
     topology_version: incremented by every topology edit (exporters re-author topology).
+    index: node -> springs, triangles, links, hinges (``TopologyIndex``), built on first use.
     """
 
     def __init__(self, points, masses, springs, rest_lengths, stiffness, damping,
                  pinned, triangles, material: Material):
         n = len(points)
+        self._index: TopologyIndex | None = None
         self.node_table = SlotTable({
             "points": points, "masses": masses, "damping": damping,
             "pinned": pinned, "node_class": np.zeros(n, np.int8)})
@@ -113,6 +116,24 @@ class TissueModel:
         Springs a cut makes or changes get their rest lengths the same way
         (``TopologyEditor.finish``)."""
         self.topology_version = 0
+
+    @property
+    def index(self) -> TopologyIndex:
+        """Node -> springs, triangles, links and hinges (``warp_cut.sim.topology_index``), built
+        on first use and kept up to date by every edit from then on."""
+        if self._index is None:
+            self._index = TopologyIndex(self)
+        return self._index
+
+    @property
+    def has_index(self) -> bool:
+        """Whether the index has been built (an edit then keeps it up to date)."""
+        return self._index is not None
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_index"] = None  # rebuilt where it is used (a worker's replica)
+        return state
 
     # ----------------------------------------------------------------- node views
     def _node_view(name):  # noqa: N805 - property factory used in the class body
@@ -368,8 +389,11 @@ class TissueModel:
         eps = DEFAULT_LINK_SMOOTHING * L0 if smoothing is None else _per_item(
             smoothing, len(pairs), "smoothing", lower_open=True)
         eps = np.maximum(eps, 1e-9)
-        return self.link_table.append(pairs=pairs, force=self.material.residual_stress * A,
-                                      smoothing=eps)
+        slots = self.link_table.append(pairs=pairs, force=self.material.residual_stress * A,
+                                       smoothing=eps)
+        if self._index is not None:
+            self._index.register_rows("link_table", slots)
+        return slots
 
     # ----------------------------------------------------------------- prestress and support
     def apply_prestress(self, tension: float | None = None) -> None:
@@ -399,9 +423,12 @@ class TissueModel:
         hinges = np.asarray(hinges, dtype=np.int64).reshape(-1, 4)
         x = positions
         rigidity = self.material.bending_rigidity
-        return self.hinge_table.append(
+        slots = self.hinge_table.append(
             nodes=hinges, rest_angle=dihedral_angles(x, hinges),
             stiffness=hinge_stiffness(x, hinges, rigidity), cap=hinge_caps(x, hinges, rigidity))
+        if self._index is not None:
+            self._index.register_rows("hinge_table", slots)
+        return slots
 
     @property
     def hinges(self) -> np.ndarray:

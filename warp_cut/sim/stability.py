@@ -193,33 +193,31 @@ class ElementRates:
                    model.spring_table.live_slots(), model.link_table.live_slots())
 
     # ------------------------------------------------------------------ updates
-    def update(self, nodes, editor) -> None:
-        """Rate again the elements at ``nodes`` (node slots whose springs, links, triangles or
-        mass changed), using the editor's adjacency, and drop those its report deleted."""
+    def update(self, change) -> None:
+        """Rate again the elements at the nodes a ``ModelChange`` touched (their springs,
+        links, triangles or mass changed), through the model's ``TopologyIndex``, and drop the
+        elements it deleted."""
         self._grow()  # nodes made and deleted again in one edit may lie past the last capacity
-        report = editor.report
-        for kind, dead in (("triangles", report.deleted_triangles), ("springs", report.deleted_springs),
-                           ("links", report.deleted_links), ("foundation", report.deleted_nodes)):
+        for kind, dead in (("triangles", change.deleted_triangles), ("springs", change.deleted_springs),
+                           ("links", change.deleted_links), ("foundation", change.deleted_nodes)):
             self._set(kind, dead, 0.0)
-        nodes = np.array(sorted({int(v) for v in nodes}), dtype=np.int64)
+        index = self.model.index
+        nodes = np.asarray(change.touched_nodes, dtype=np.int64)
         alive = self.model.node_table.alive_buffer()
         nodes = nodes[alive[nodes]] if len(nodes) else nodes
-        tris = sorted({t for v in nodes for t in editor.node_triangles[v]})
+        tris = index.triangles_at(nodes)
         corners = self.model.triangle_table.column("corners")[tris] if tris else np.zeros((0, 3), int)
         near = set(nodes.tolist()) | set(corners.ravel().tolist())
-        springs_near = sorted({s for v in near for s in editor.node_springs[v]})
-        springs_at = sorted({s for v in nodes for s in editor.node_springs[v]})
-        links_at = sorted({s for v in nodes for s in editor.node_links[v]})
-        self._rate(nodes, np.array(tris, np.int64), np.array(springs_near, np.int64),
-                   np.array(springs_at, np.int64), np.array(links_at, np.int64))
-        self._rate_bending(editor)
+        self._rate(nodes, np.array(tris, np.int64), np.array(index.springs_at(near), np.int64),
+                   np.array(index.springs_at(nodes), np.int64), np.array(index.links_at(nodes), np.int64))
+        self._rate_bending(change.hinge_nodes)
 
-    def _rate_bending(self, editor) -> None:
-        """The bending's row sums again at the nodes of hinges the edit made or deleted."""
-        nodes = np.array(sorted(editor.hinge_nodes_changed), dtype=np.int64)
+    def _rate_bending(self, nodes) -> None:
+        """The bending's row sums again at ``nodes`` (of hinges an edit made or deleted)."""
+        nodes = np.asarray(nodes, dtype=np.int64)
         if not len(nodes):
             return
-        hinges = np.array(sorted({h for v in nodes for h in editor.node_hinges[v]}), dtype=np.int64)
+        hinges = np.array(self.model.index.hinges_at(nodes), dtype=np.int64)
         rows = bending_node_rows(self.model, hinges)
         self.bend[nodes] = rows[nodes]
 

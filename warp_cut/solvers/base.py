@@ -3,8 +3,8 @@
 The solver contract (the Simulator relies on it):
 
 * ``Cls(device_model, gravity=None, residual_stress=True, collision=True,
-  max_displacement=inf)``; the foundation is on when the model has one
-  (``device_model.foundation_stiffness > 0``);
+  max_displacement=inf, links_expected=False, limits=None)``; the foundation is on when the
+  model has one (``device_model.foundation_stiffness > 0``);
 * ``step(state_in, state_out, tool, h)`` advances one substep h [s]; ``state_in.forces`` is zero
   on entry and left zero;
 * ``clear_tool_stats()`` and the stats arrays ``tool_force`` (1,) vec3 [N], ``contact_count``
@@ -15,10 +15,14 @@ The solver contract (the Simulator relies on it):
   velocity makes the position non-finite in the same pass); it stays at ``NO_BAD_NODE`` while
   all is well and is reset by ``readout.clear_bad_node()``;
 * ``readout``: a ``StepReadout`` of ``first_bad`` and the tool statistics;
-* ``topology_changed()`` after the device arrays were edited in place or reallocated: the
-  solver drops its recorded launches and re-derives what it keeps (spring order, valences);
-  ``prepare(state_in, state_out, h)`` records the launches ahead of the next ``step``;
-* ``step_limit(model)`` (class method): the StepLimit the automatic step uses.
+* ``notify_model_changed(change)`` after a topology edit (a ``ModelChange``) was mirrored on
+  the device (in place, or into reallocated arrays the solver was remade on): the solver drops
+  its recorded launches, re-derives what it keeps (spring order, valences) and follows its
+  stable step (``limits``); ``prepare(state_in, state_out, h)`` records the launches ahead of
+  the next ``step``;
+* ``step_limit(model)`` (class method): the StepLimit the automatic step uses;
+  ``limit_tracker(model)`` (class method): that limit, followed edit by edit
+  (``warp_cut.solvers.limits``); ``limits.limit`` is the current one.
 
 Recorded launches depend on the model's sizes (``_extent``: by default its used-slot counts, so
 an edit records new launches; the semi-implicit solver spans the arrays' capacity instead, so an
@@ -37,8 +41,10 @@ from ..kernels.collision import clear_tool_stats
 from ..kernels.diagnostics import displacement_limit_sq
 from ..sim.control import Tool
 from ..sim.device_model import DeviceModel
+from ..sim.model_change import ModelChange
 from ..sim.stability import StepLimit, stable_time_step
 from .launches import AUTO_CAPTURE_AFTER, LaunchSequence
+from .limits import GivenLimit, RecomputedLimit, StepLimitTracker
 from .readout import NO_BAD_NODE, StepReadout
 
 __all__ = ["SolverBase", "CPU_CHUNK"]
@@ -61,16 +67,22 @@ class SolverBase:
         replay: how recorded launches are replayed, see ``launches.REPLAY_MODES``.
         max_displacement: the stability guard flags a node farther than this from rest [m]
             (inf: non-finite states only).
+        links_expected: launch the residual links before the model has any (a cut will make
+            them), where launches span the arrays' capacity (the semi-implicit solver), so the
+            first link records nothing new.
+        limits: the stable step's tracker to carry on with (a solver remade on reallocated
+            arrays keeps its predecessor's); None builds one from the model.
     """
 
     def __init__(self, model: DeviceModel, *, gravity=None, residual_stress: bool = True,
-                 collision: bool = True, replay: str = "auto", max_displacement: float = math.inf):
+                 collision: bool = True, replay: str = "auto", max_displacement: float = math.inf,
+                 links_expected: bool = False, limits: StepLimitTracker | None = None):
         self.model = model
         self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
         self.residual_stress = bool(residual_stress)
-        self.links_expected = False
-        """Launch the residual links before the model has any (a cut will make them), where
-        launches span the arrays' capacity (the semi-implicit solver)."""
+        self.links_expected = bool(links_expected)
+        self.limits: StepLimitTracker = limits or type(self).limit_tracker(model.model)
+        """The stable step (``limits.limit``), followed through edits."""
         self.collision = bool(collision)
         self.foundation_stiffness = float(model.foundation_stiffness)
         """k_f [N/m^3] of the model's support; 0: the foundation is neither launched nor compiled."""
@@ -106,6 +118,24 @@ class SolverBase:
     def step_limit(cls, model) -> StepLimit:
         """The largest stable substep of this integrator for ``model`` (wherever its nodes are)."""
         return stable_time_step(model)
+
+    @classmethod
+    def limit_tracker(cls, model) -> StepLimitTracker:
+        """``step_limit(model)``, followed edit by edit (by default worked out again each time)."""
+        return RecomputedLimit(model, cls.step_limit)
+
+    def notify_model_changed(self, change: ModelChange) -> StepLimit:
+        """Take a topology edit the device arrays now mirror: forget recorded launches,
+        re-derive, follow the stable step (the one the change carries, if its maker worked it
+        out). Returns the new limit."""
+        self.topology_changed()
+        if change.step_limit is not None:
+            self.limits = GivenLimit(change.step_limit)
+        elif isinstance(self.limits, GivenLimit):  # nothing followed the edits: start afresh
+            self.limits = type(self).limit_tracker(self.model.model)
+        else:
+            self.limits.update(change)
+        return self.limits.limit
 
     def clear_tool_stats(self) -> None:
         """Zero the tool statistics (before the first substep of a step)."""

@@ -33,14 +33,16 @@ class ImplicitEulerSolver(SolverBase):
 
     def __init__(self, model, *, gravity=None, residual_stress: bool = True,
                  collision: bool = True, replay: str = "auto", cg_iterations: int = 40,
-                 cg_tolerance: float = 1e-4, max_displacement: float = math.inf):
+                 cg_tolerance: float = 1e-4, max_displacement: float = math.inf,
+                 links_expected: bool = False, limits=None):
         self.cg_iterations = int(cg_iterations)
         self.cg_tolerance = float(cg_tolerance)
         device = model.device
         self.cg = wp.zeros((self.cg_iterations + 1, 2), dtype=wp.float64, device=device)
         """CG scalars per iteration: r.z and p.Ap."""
         super().__init__(model, gravity=gravity, residual_stress=residual_stress,
-                         collision=collision, replay=replay, max_displacement=max_displacement)
+                         collision=collision, replay=replay, max_displacement=max_displacement,
+                         links_expected=links_expected, limits=limits)
 
     @classmethod
     def step_limit(cls, model) -> StepLimit:

@@ -9,6 +9,7 @@ from ..kernels.residual import residual_link_forces
 from ..kernels.springs import spring_forces
 from .base import SolverBase
 from .launches import LaunchSequence
+from .limits import IncrementalLimit
 
 __all__ = ["SemiImplicitSolver"]
 
@@ -24,6 +25,12 @@ class SemiImplicitSolver(SolverBase):
     tool_force (1,) vec3 [N], contact_count (1,) int32 and contact_position_sum (1,) vec3 [m]
     accumulate over substeps until ``clear_tool_stats``; the node pass runs the stability guard.
     """
+
+    @classmethod
+    def limit_tracker(cls, model) -> IncrementalLimit:
+        """The element bounds of ``warp_cut.sim.stability``: an edit rates again only the
+        elements at the nodes it touched."""
+        return IncrementalLimit(model)
 
     def _extent(self) -> tuple:
         """Launches span the arrays' capacity (the kernels skip dead and unused slots), so an
