@@ -12,7 +12,7 @@ Steps (lengths in mm until the last step):
    a Gaussian of 1 voxel smooths the staircase; marching cubes (scikit-image) at 0.5 gives the
    envelope, wound outward.
 2. the top of the head: the faces facing up within 45 mm (horizontally) of (x, y) = (0, -20), the
-   largest connected piece: a disk-like cap of about 7400 mm^2.
+   largest connected piece: a disk-like cap of about 7100 mm^2.
 3. node sites: quadric decimation (trimesh + fast-simplification) of the cap to edges of about
    ``--spacing`` mm gives sites dense where the envelope bends, sparse where it is flat; the
    cap's border loop is resampled every ``--spacing`` mm of its length and the sites nearer the
