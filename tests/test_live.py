@@ -18,18 +18,37 @@ from warp_cut.io.usd_check import check_usd, validate_usd
 from warp_cut.live import LiveCut, ScalpelPose
 from warp_cut.live.pacing import RateMeter, RealTimeClock
 from warp_cut.live.scalpel import ToolMotion
-from warp_cut.live.scripted import straight_cut, wait_until_arrived
+from warp_cut.live.scripted import straight_cut
 
 SMALL = ["tissue.size=[0.06,0.04]"]
 """The straight incision's scene on a 6 x 4 cm patch (the scalpel starts at x = -2 cm)."""
 
 
 class FakeClock:
-    def __init__(self):
-        self.t = 100.0
+    """A wall clock [s] that moves only when the test moves it. It counts its reads, and a test
+    can wait for the next ones: a thread pacing itself by it reads it on every pass of its
+    loop while it runs (waiting on a condition, not sleeping)."""
 
-    def __call__(self):
-        return self.t
+    def __init__(self, t: float = 100.0):
+        self.t = t
+        self.reads = 0
+        self._read = threading.Condition()
+
+    def __call__(self) -> float:
+        with self._read:
+            self.reads += 1
+            self._read.notify_all()
+            return self.t
+
+    def advance(self, seconds: float) -> None:
+        with self._read:
+            self.t += seconds
+
+    def wait_for_reads(self, n: int, timeout: float = 120.0) -> bool:
+        """Whether the clock was read ``n`` more times within ``timeout`` [s] of wall time."""
+        with self._read:
+            target = self.reads + n
+            return self._read.wait_for(lambda: self.reads >= target, timeout)
 
 
 # ---------------------------------------------------------------- scalpel
@@ -82,6 +101,9 @@ def test_clock_runs_the_steps_due_and_counts_what_it_gives_up():
     now.t += 0.5  # a stall: 0.5 s behind; one step is run, the rest given up
     assert clock.steps_due(0.010, 0.001) == 1
     assert clock.behind == pytest.approx(0.5005 - 0.001, abs=1e-9)
+    assert clock.steps_due(0.011, 0.001) == 0  # that step ends now: nothing more is due
+    now.t += 0.0105
+    assert clock.steps_due(0.011, 0.001) == 10  # then one step per millisecond again
     meter = RateMeter(window=1.0, now=now)
     for k in range(5):
         meter.add(sim_time=0.5 * k * 0.1, compute_time=0.25 * k * 0.1)
@@ -93,7 +115,7 @@ def test_clock_runs_the_steps_due_and_counts_what_it_gives_up():
 @pytest.fixture(scope="module", params=[False, 1], ids=["cut in the loop", "cut in the background"])
 def cut_run(request):
     """A scripted 15 mm cut; in the background with each edit two steps late (max_lag 1)."""
-    live = LiveCut("straight_incision", SMALL, cut_in_background=request.param)
+    live = LiveCut("straight_incision", SMALL, cut_in_background=bool(request.param), max_lag=request.param or None)
     _, before = live.view_frame()
     straight_cut(live, 0.015)
     yield live, before
@@ -192,7 +214,7 @@ def test_cutting_off_presses_without_cutting_then_on_cuts(background):
         version = live.sim.model.topology_version
         straight_cut(live, 0.004, settle=0.0)
         assert live.sim.model.topology_version == version and live.status().incisions == 0
-        assert live.sim.max_tool_force > 0.005  # the blade pressed the skin
+        assert live.sim.contacts.max_force > 0.005  # the blade pressed the skin
         live.set_cutting(True)
         straight_cut(live, 0.004, settle=0.0)
         assert live.sim.model.topology_version > version and live.status().incisions == 1
@@ -227,21 +249,55 @@ def test_a_scene_without_a_tool_is_refused(tmp_path):
         LiveCut(str(scene))
 
 
-def test_real_time_thread_paces_pauses_saves_and_stops(tmp_path):
-    live = LiveCut("straight_incision", SMALL)
+def _steps(live) -> int:
+    return round(live.status().time / live.dt)
+
+
+def _wait_until(condition, clock: FakeClock, timeout: float = 120.0) -> None:
+    """Wait until ``condition()`` holds, waking at each read of the clock (each pass of the
+    run's thread) and at least every 50 ms; a failure after ``timeout`` [s] of wall time."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, "timed out"
+        clock.wait_for_reads(1, timeout=0.05)
+
+
+def _settled_steps(live, clock: FakeClock, quiet_reads: int = 10, timeout: float = 120.0) -> int:
+    """The run's step count once the thread has read the clock ``quiet_reads`` times without
+    stepping in between (it reads it before and after each stretch of steps): every step due
+    has been run."""
+    deadline = time.monotonic() + timeout
+    steps, quiet = _steps(live), 0
+    while quiet < quiet_reads:
+        assert time.monotonic() < deadline and live.status().error is None, "the thread did not settle"
+        read = clock.wait_for_reads(1, timeout=0.05)
+        now = _steps(live)
+        quiet = quiet + 1 if read and now == steps else 0
+        steps = now
+    return steps
+
+
+def test_real_time_thread_steps_what_the_clock_allows_pauses_saves_and_stops(tmp_path):
+    """The real-time thread paced by a clock the test moves: exactly the steps due, never one
+    ahead; after a stall past max_lag one step and the rest given up (simulated time plus time
+    given up is the wall time); nothing while paused and no burst after it; commands and a
+    save while it runs."""
+    clock = FakeClock(100.0)
+    live = LiveCut("straight_incision", SMALL, clock=clock)
+    dt = live.dt
     try:
-        start = time.perf_counter()
         live.start()
-        time.sleep(1.0)
-        s = live.status()
-        assert 0.05 < s.time <= time.perf_counter() - start + 0.02  # never ahead of the wall clock
-        live.set_paused(True)
-        paused_at = live.status().time
-        time.sleep(0.3)
-        assert live.status().time == paused_at and live.status().paused
-        live.set_paused(False)
-        live.set_target(live.target.tip + [0, 0, 0.002])  # a command while running
-        wait_until_arrived(live, timeout=30)
+        assert clock.wait_for_reads(1)  # anchored: simulated time 0 is now
+        clock.advance(50.5 * dt)
+        assert _settled_steps(live, clock) == 50  # the 51st is due at 51 dt only
+        clock.advance(0.5)  # a stall past max_lag (0.1 s): one step, the rest given up
+        assert _settled_steps(live, clock) == 51
+        status = live.status()
+        assert status.time + status.behind_s == pytest.approx(clock.t - 100.0, abs=dt)
+        clock.advance(10.5 * dt)
+        assert _settled_steps(live, clock) == 61
+        _pause_holds(live, clock)
+        _command_while_running(live, clock)
         paths = live.save(tmp_path / "threaded")
         assert check_usd(paths[-1]) == []
     finally:
@@ -250,14 +306,40 @@ def test_real_time_thread_paces_pauses_saves_and_stops(tmp_path):
     assert not [t for t in threading.enumerate() if t.name.startswith("warp-cut-live")]
 
 
+def _pause_holds(live, clock: FakeClock) -> None:
+    """Paused, the run makes no step however far the clock moves; resumed, it owes none."""
+    live.set_paused(True)  # a command: it runs on the thread, between two passes
+    paused_at = _steps(live)
+    clock.advance(0.05)
+    live.set_paused(True)  # the thread has made another pass since
+    assert _steps(live) == paused_at and live.status().paused
+    live.set_paused(False)
+    assert _settled_steps(live, clock) == paused_at
+
+
+def _command_while_running(live, clock: FakeClock) -> None:
+    """A target set while the thread runs is reached as the clock moves on; the simulation
+    keeps within a step of the clock, never ahead of it."""
+    start_steps, start_clock = _steps(live), clock.t
+    live.set_target(live.target.tip + [0, 0, 0.002])  # 2 mm at 20 mm/s: 0.1 s
+    for _ in range(100):
+        if live.arrived:
+            break
+        clock.advance(10.5 * live.dt)
+        due = (clock.t - start_clock) / live.dt
+        assert due - 1 < _settled_steps(live, clock) - start_steps <= due + 1e-6
+    assert live.arrived
+
+
 def test_instability_is_reported_and_the_thread_keeps_serving(tmp_path):
+    clock = FakeClock()
     live = LiveCut("straight_incision", SMALL + ["solver.substeps=1", "material.damping=0",
-                                                 "material.stiffness=100000"])
+                                                 "material.stiffness=100000"], clock=clock)
     try:
         live.start()
-        deadline = time.perf_counter() + 30
-        while live.status().error is None and time.perf_counter() < deadline:
-            time.sleep(0.05)
+        assert clock.wait_for_reads(1)  # anchored
+        clock.advance(10.5 * live.dt)  # ten steps due: the stiff undamped sheet fails within them
+        _wait_until(lambda: live.status().error is not None or _steps(live) >= 10, clock)
         assert "unstable" in live.status().error
         with pytest.raises(InputError, match="nothing saved"):
             live.save(tmp_path / "unstable")

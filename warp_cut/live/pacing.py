@@ -44,9 +44,9 @@ class RealTimeClock:
         if self._wall0 is None:
             self.anchor(sim_time)
         lag = self._sim0 + (self.now() - self._wall0) - sim_time
-        if lag > self.max_lag:
+        if lag > self.max_lag:  # run one step, ending now; give up the rest
             self.behind += lag - dt
-            self.anchor(sim_time - dt)
+            self.anchor(sim_time + dt)
             lag = dt
         return max(0, math.floor(lag / dt + 1e-9))
 
