@@ -1,10 +1,12 @@
 """warp_cut/live pages (viser, no browser): what the page holds after a scripted cut, the
 controls driving the run, the player against the USD it reads, and the commands' exit codes,
-port handling and clean shutdown."""
+port handling, the address the server really listens on, and clean shutdown."""
 
+import ipaddress
 import json
 import os
 import re
+import select
 import signal
 import socket
 import subprocess
@@ -36,17 +38,70 @@ from warp_cut.scene import load_scene  # noqa: E402
 SMALL = ["tissue.size=[0.06,0.04]"]
 
 
-def _port_is_free(port: int) -> bool:
-    """True if a new server can listen on the port: nothing listens there any more. (With
+def _port_is_free(port: int, host: str = "127.0.0.1") -> bool:
+    """True if a new server can listen on host:port: nothing listens there any more. (With
     SO_REUSEADDR, as servers bind: the closed connections' TIME_WAIT entries, which outlive
     the process by a minute, do not count.)"""
     with socket.socket() as s:
         s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
-            s.bind(("127.0.0.1", port))
+            s.bind((host, port))
         except OSError:
             return False
     return True
+
+
+def _socket_inodes(pid: int) -> set[str]:
+    """Inodes of the sockets process ``pid`` holds open (its /proc/PID/fd links socket:[N])."""
+    inodes = set()
+    for fd in Path(f"/proc/{pid}/fd").iterdir():
+        try:
+            found = re.fullmatch(r"socket:\[(\d+)\]", os.readlink(fd))
+        except OSError:  # closed meanwhile
+            continue
+        if found:
+            inodes.add(found.group(1))
+    return inodes
+
+
+def _proc_address(field: str) -> tuple[str, int]:
+    """(address, port) of a /proc/net/tcp{,6} address field: the address in hex, as 32-bit
+    words in the machine's byte order, a colon, the port in hex."""
+    address, port = field.split(":")
+    raw = bytes.fromhex(address)
+    if sys.byteorder == "little":
+        raw = b"".join(raw[k:k + 4][::-1] for k in range(0, len(raw), 4))
+    return str(ipaddress.ip_address(raw)), int(port, 16)
+
+
+def _listening_addresses(pid: int, port: int) -> list[str]:
+    """The addresses process ``pid`` listens on at TCP ``port``, as the kernel's socket
+    tables give them: the sockets in state LISTEN (0A) of /proc/PID/net/tcp and tcp6 whose
+    inode is one of the process's open sockets."""
+    inodes, found = _socket_inodes(pid), []
+    for table in ("tcp", "tcp6"):
+        path = Path(f"/proc/{pid}/net/{table}")
+        if not path.exists():
+            continue
+        for line in path.read_text().splitlines()[1:]:
+            fields = line.split()
+            address, listened = _proc_address(fields[1])
+            if fields[3] == "0A" and fields[9] in inodes and listened == port:
+                found.append(address)
+    return sorted(found)
+
+
+def _refused(host: str, port: int) -> bool:
+    """True if a TCP connection to host:port is refused (nothing listens on that address)."""
+    try:
+        socket.create_connection((host, port), timeout=10).close()
+    except ConnectionRefusedError:
+        return True
+    return False
+
+
+needs_proc = pytest.mark.skipif(not Path("/proc/self/net/tcp").exists(),
+                                reason="reads the listening sockets from /proc/PID/net/tcp")
 
 
 def _no_threads_left():
@@ -153,6 +208,33 @@ def test_taken_port_unknown_scene_and_bad_values_exit_2(busy_port, tmp_path, cap
     assert "no USD file" in capsys.readouterr().err
 
 
+@needs_proc
+def test_the_server_listens_on_127_0_0_1_alone_by_default():
+    """The socket the server listens on (read from the kernel's tables) is bound to 127.0.0.1:
+    a connection there is accepted, one to another loopback address of this machine refused."""
+    server = start_server(port=0)
+    port = server.get_port()
+    try:
+        assert _listening_addresses(os.getpid(), port) == ["127.0.0.1"]
+        socket.create_connection(("127.0.0.1", port), timeout=10).close()
+        assert _refused("127.0.0.2", port)
+    finally:
+        server.stop()
+    assert _listening_addresses(os.getpid(), port) == []
+
+
+@needs_proc
+def test_host_0_0_0_0_listens_on_every_address_and_warns(capsys):
+    server = start_server("0.0.0.0", 0)
+    port = server.get_port()
+    try:
+        assert _listening_addresses(os.getpid(), port) == ["0.0.0.0"]
+        socket.create_connection(("127.0.0.2", port), timeout=10).close()  # any address of this machine
+    finally:
+        server.stop()
+    assert "warning: serving on 0.0.0.0" in capsys.readouterr().err
+
+
 def test_a_host_beyond_this_machine_is_warned_about(capsys):
     assert not warn_if_exposed("127.0.0.1") and not warn_if_exposed("localhost")
     assert not warn_if_exposed("::1") and not warn_if_exposed("127.0.0.2")
@@ -161,31 +243,33 @@ def test_a_host_beyond_this_machine_is_warned_about(capsys):
     assert "warning: serving on 0.0.0.0" in capsys.readouterr().err
 
 
-def _serve(args, timeout=120.0):
-    """Start ``warp-cut ARGS``; return the process and the address it printed."""
+def _serve(args, host="127.0.0.1", timeout=120.0):
+    """Start ``warp-cut ARGS``; return the process and the address it printed (on ``host``)."""
     proc = subprocess.Popen([sys.executable, "-m", "warp_cut.cli"] + args, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + timeout
     for line in proc.stdout:
-        found = re.search(r"at (http://127\.0\.0\.1:(\d+))", line)
+        found = re.search(rf"at (http://{re.escape(host)}:(\d+))", line)
         if found:
             return proc, found.group(1), int(found.group(2))
         assert time.monotonic() < deadline, "no address printed"
     raise AssertionError(f"exited without serving: {proc.wait()} {proc.stderr.read()}")
 
 
-def _interrupt(proc, port):
+def _interrupt(proc, port, host="127.0.0.1"):
     proc.send_signal(signal.SIGINT)
     code = proc.wait(timeout=60)
     err = proc.stderr.read()
     assert code == 0, err
     assert "stopped" in err and "Traceback" not in err and "threads still running" not in err
-    assert _port_is_free(port)
+    assert _port_is_free(port, host)
 
 
-def test_live_command_serves_until_ctrl_c_and_frees_its_port():
+@needs_proc
+def test_live_command_serves_127_0_0_1_until_ctrl_c_and_frees_its_port():
     proc, url, port = _serve(["live", "skin_press", "--set", "tissue.size=[0.03,0.02]"])
     try:
+        assert _listening_addresses(proc.pid, port) == ["127.0.0.1"]  # no --host: loopback
         with urllib.request.urlopen(url, timeout=30) as page:
             assert page.status == 200 and b"<html" in page.read().lower()
     finally:
@@ -217,9 +301,20 @@ def test_ctrl_c_stops_the_background_cut_worker_too():
             os.kill(worker, signal.SIGINT)
     finally:
         _interrupt(proc, port)
-    time.sleep(0.5)
-    assert not [w for w in workers if Path(f"/proc/{w}").exists()
-                and "Z" not in Path(f"/proc/{w}/stat").read_text().rsplit(")", 1)[1].split()[0]]
+    assert [w for w in workers if not _has_ended(w, timeout=60)] == []
+
+
+def _has_ended(pid: int, timeout: float) -> bool:
+    """Whether process ``pid`` ends (or has ended) within ``timeout`` [s]: waits on its pidfd,
+    which becomes readable when the process exits, whoever its parent is."""
+    try:
+        fd = os.pidfd_open(pid)
+    except ProcessLookupError:  # gone, and reaped
+        return True
+    try:
+        return bool(select.select([fd], [], [], timeout)[0])
+    finally:
+        os.close(fd)
 
 
 @pytest.fixture(scope="module")
@@ -279,10 +374,16 @@ def test_player_page_shows_the_slider_frame_and_plays(finished_run):
     assert _port_is_free(port) and _no_threads_left()
 
 
-def test_view_command_serves_until_ctrl_c(finished_run):
-    proc, url, port = _serve(["view", str(finished_run)])
+@needs_proc
+def test_view_command_serves_on_the_host_given_until_ctrl_c(finished_run):
+    """``--host 127.0.0.2``: the socket is bound to that address (another loopback address,
+    so the page stays on this machine) and to no other."""
+    host = "127.0.0.2"
+    proc, url, port = _serve(["view", str(finished_run), "--host", host], host=host)
     try:
+        assert _listening_addresses(proc.pid, port) == [host]
         with urllib.request.urlopen(url, timeout=30) as page:
             assert page.status == 200
+        assert _refused("127.0.0.1", port)
     finally:
-        _interrupt(proc, port)
+        _interrupt(proc, port, host)
