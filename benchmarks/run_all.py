@@ -27,6 +27,7 @@ import bench_cut_latency  # noqa: E402
 import bench_haptic  # noqa: E402
 import bench_live  # noqa: E402
 import bench_mesh_checks  # noqa: E402
+import bench_pace  # noqa: E402
 import bench_pareto  # noqa: E402
 import bench_pareto_incision  # noqa: E402
 import bench_realtime  # noqa: E402
@@ -44,7 +45,7 @@ def main(argv=None) -> int:
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
              ("compile time", bench_compile), ("cut event latency", bench_cut_latency),
              ("mesh checks", bench_mesh_checks), ("haptic rate (1 ms ticks)", bench_haptic),
-             ("live cutting (warp-cut live)", bench_live),
+             ("live cutting (warp-cut live)", bench_live), ("paced runs (--pace)", bench_pace),
              ("cut quality, cut in the background", bench_background_quality)]
     for name, module in parts:
         print(f"{name}:", flush=True)
