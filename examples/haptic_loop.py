@@ -1,7 +1,7 @@
 """A fixed-rate 1 kHz haptic loop on warp_cut: read the device pose, step once, send the force.
 
     python examples/haptic_loop.py [--ticks N] [--trace FILE] [--no-cut | --cut-in-loop]
-                                   [--write-trace FILE]
+                                   [--max-lag N] [--write-trace FILE]
 
 A haptic device reports its stylus pose every millisecond and wants a force back before the
 next tick. This loop stands in for the device with a trace of poses: a CSV file recorded from
@@ -15,7 +15,9 @@ skin along the blade's axis, then 2 cm/s along x). Each tick it
 
 The cut runs in a worker process (``Simulator(cutting=CutSettings(worker=True))``): a cut event's host
 work (milliseconds) would otherwise land in one tick; ``--cut-in-loop`` runs it in the step, to
-compare. A tick that ends after its deadline is a missed deadline (the device would have held the last
+compare; ``--max-lag N`` makes a tick wait for an edit N steps after its event (1: the edits
+land on the same ticks every run, whatever the machine's load, at the price of late ticks). A
+tick that ends after its deadline is a missed deadline (the device would have held the last
 force): it is printed with its duration and force, and the schedule moves on to the next tick
 boundary. The summary gives the tick percentiles and the largest tick-to-tick force change.
 
@@ -171,6 +173,9 @@ def parse_args(argv=None):
     parser.add_argument("--no-cut", action="store_true", help="touch and press without cutting")
     parser.add_argument("--cut-in-loop", action="store_true",
                         help="run each cut event inside the step of its tick (default: in a worker process)")
+    parser.add_argument("--max-lag", type=int, default=None, metavar="N",
+                        help="with the cut in a worker: wait for an event's edit once it is N steps in flight "
+                             "(default: never; 1: the same edits on the same ticks every run)")
     parser.add_argument("--write-trace", type=Path, default=None,
                         help="write the scripted trace to this CSV and exit")
     parser.add_argument("--print-every", type=int, default=250, help="print the force every N ticks (0: never)")
@@ -181,6 +186,8 @@ def parse_args(argv=None):
         parser.error(f"--ticks must be >= 1, got {args.ticks}")
     if args.no_cut and args.cut_in_loop:
         parser.error("--no-cut and --cut-in-loop exclude each other")
+    if args.max_lag is not None and (args.no_cut or args.cut_in_loop or args.max_lag < 1):
+        parser.error(f"--max-lag must be >= 1 and needs the cut in a worker, got {args.max_lag}")
     if not 0.0005 <= args.spacing <= 0.01:
         parser.error(f"--spacing must be in [0.0005, 0.01] m, got {args.spacing}")
     return args
@@ -197,7 +204,7 @@ def main(argv=None) -> int:
         trace = read_trace(args.trace) if args.trace is not None else scripted_trace((args.ticks or 2199) + 1)
         trace = trace[: args.ticks + 1] if args.ticks else trace
         model = wc.TissueModel.from_patch(size=(0.10, 0.06), spacing=args.spacing)
-        cutting = None if args.no_cut else wc.CutSettings(worker=not args.cut_in_loop)
+        cutting = None if args.no_cut else wc.CutSettings(worker=not args.cut_in_loop, max_lag=args.max_lag)
         sim = wc.Simulator(model, dt=PERIOD, cutting=cutting)
     except (ValueError, wc.InputError) as error:  # a bad trace
         print(f"error: {error}", file=sys.stderr)
