@@ -6,8 +6,11 @@ arrives late); its failures must reach the loop as errors, and closing must leav
 """
 
 import math
+import os
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -18,7 +21,7 @@ from test_cut_fuzz import cut_cases, make_stroke, make_surface
 
 from warp_cut import Simulator, TissueModel, Tool
 from warp_cut.cut.background import BackgroundCutter
-from warp_cut.cut.cut_worker import ANCHORS, ModelEdit, WorkerEvent, motion_anchors
+from warp_cut.cut.cut_worker import ANCHORS, ModelEdit, TableEdit, WorkerEvent, motion_anchors
 from warp_cut.cut.settings import CutSettings
 from warp_cut.errors import CutWorkerError, InputError
 from warp_cut.sim.model_change import ModelChange
@@ -277,3 +280,81 @@ def test_an_edit_moves_its_new_nodes_with_the_tissue():
     shift = np.array([3e-4, -2e-4, 1e-4])
     assert np.allclose(edit.positions_now(at_event, at_event + shift), new_positions + shift)
     assert np.allclose(edit.positions_now(at_event, at_event), new_positions)
+
+
+
+def _send_an_event(sim, start: int = 0, limit: int = 200) -> int:
+    """Step the stroke from tick ``start`` until the loop has sent an event (it is in flight);
+    returns the next tick."""
+    for k in range(start, start + limit):
+        sim.step(tool=scalpel(k))
+        if sim.cutter._busy:
+            return k + 1
+    raise AssertionError("no cut event was sent")
+
+
+def test_a_hung_worker_is_an_error_after_the_answer_timeout():
+    """A worker that stops answering (frozen with SIGSTOP) while the loop must wait for its
+    edit (max_lag 1): the step raises 'did not answer' after the timeout instead of hanging,
+    the worker is stopped, and every later step raises the same."""
+    model = TissueModel.from_patch((0.03, 0.02), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=LAG_1)
+    cutter = sim.cutter
+    cutter.answer_timeout = 0.5
+    try:
+        sim.step(40, tool=scalpel(0))
+        assert cutter.worker_ms, "the worker answered the first events"
+        os.kill(cutter._process.pid, signal.SIGSTOP)
+        started = time.perf_counter()
+        with pytest.raises(CutWorkerError, match=r"did not answer within 0\.5 s"):
+            sim.step(40, tool=scalpel(0))
+        assert time.perf_counter() - started >= 0.5
+        assert not cutter._process.is_alive()  # given up: stopped
+        with pytest.raises(CutWorkerError, match="did not answer"):
+            sim.step(tool=scalpel(0))
+    finally:
+        sim.close()
+
+
+def test_a_worker_that_dies_with_an_edit_in_flight_is_an_error_for_good():
+    """The worker is frozen, an event is sent to it, then it is killed before it can answer:
+    flushing raises 'died', and so does every later step (the replica is gone)."""
+    model = TissueModel.from_patch((0.03, 0.02), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(worker=True))
+    cutter = sim.cutter
+    try:
+        sim.step(40, tool=scalpel(0))
+        cutter.flush(sim)
+        os.kill(cutter._process.pid, signal.SIGSTOP)
+        k = _send_an_event(sim, 40)
+        cutter._process.kill()
+        cutter._process.join(timeout=10)
+        with pytest.raises(CutWorkerError, match="died"):
+            cutter.flush(sim)
+        with pytest.raises(CutWorkerError, match="died"):
+            sim.step(tool=scalpel(k))
+    finally:
+        sim.close()
+
+
+def test_an_edit_that_fails_to_apply_stops_the_cut_for_good():
+    """An edit the loop cannot apply (here one whose rows lack a column) leaves its model
+    neither the replica's nor what it was: the step raises CutWorkerError naming the failure,
+    and so does every later step, instead of cutting on a tissue that differs from the
+    worker's."""
+    model = TissueModel.from_patch((0.03, 0.02), 0.002)
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=LAG_1)
+    cutter = sim.cutter
+    try:
+        k = _send_an_event(sim)
+        sim.step(tool=scalpel(k))  # max_lag 1: received now, applied at the next step
+        assert cutter._received is not None
+        _, summary = cutter._received
+        broken = TableEdit(np.array([0]), {"points": np.zeros((1, 3))}, model.node_table.count)
+        cutter._received = ([ModelEdit({"node_table": broken}, ModelChange.of(), 1)], summary)
+        with pytest.raises(CutWorkerError, match="applying the cut worker's edit failed: ValueError"):
+            sim.step(tool=scalpel(k + 1))
+        with pytest.raises(CutWorkerError, match="applying"):
+            sim.step(tool=scalpel(k + 2))
+    finally:
+        sim.close()

@@ -39,7 +39,8 @@ def _cmd_run(args) -> int:
     out = args.out or os.path.join("out", scene.name)
     result, written = run_to_directory(scene, out, usd=not args.no_usd, usd_path=args.usd,
                                        usd_chunk=args.usd_chunk, quiet=args.quiet,
-                                       cut_in_background=args.cut_in_background, pace=args.pace)
+                                       cut_in_background=args.cut_in_background, pace=args.pace,
+                                       max_lag=args.max_lag)
     if not args.quiet:
         m = result.metrics
         print(f"{scene.name}: {m['nodes']} nodes, {m['springs']} springs, {m['steps']} steps of "
@@ -218,6 +219,10 @@ def _add_run(sub) -> None:
     run.add_argument("--pace", type=float, default=1.0, metavar="X",
                      help="with --cut-in-background: run X times faster than real time, every "
                           "step in 1/X of its dt of wall time (0 < X <= 1000; default 1)")
+    run.add_argument("--max-lag", type=int, default=None, metavar="N",
+                     help="with --cut-in-background: wait for a cut event's edit once it is N steps "
+                          "in flight (N >= 1; default: never wait); 1 makes the run's wound the same "
+                          "every time")
     run.set_defaults(func=_cmd_run)
     val = sub.add_parser("validate", help="check a scene without running it")
     val.add_argument("scene")

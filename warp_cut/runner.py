@@ -82,7 +82,7 @@ def _progress(total: int, quiet: bool):
 
 
 def run_scene(scene: Scene, *, quiet: bool = True, observers=(), cut_in_background: bool = False,
-              pace: float = 1.0) -> RunResult:
+              pace: float = 1.0, max_lag: int | None = None) -> RunResult:
     """Run a scene to its end.
 
     Args:
@@ -91,19 +91,25 @@ def run_scene(scene: Scene, *, quiet: bool = True, observers=(), cut_in_backgrou
         observers: objects with ``on_frame(sim, frame)``, called after every output frame
             (frame 0 is the initial state), and ``finish(metrics)``, called at the end.
         cut_in_background: for a scene that cuts, run the cut in a worker process
-            (``Simulator(cut_in_background=True)``) and pace the loop at real time, one step
+            (``CutSettings(worker=True)``) and pace the loop at real time, one step
             per step dt of wall time, as a haptic device paces it: each edit lands as many
             steps after its event as the worker took, as it would in a live loop. The worker
             is stopped at the end.
         pace: with ``cut_in_background``, steps per step dt of wall time (1: real time; 3: a
             loop three times faster than real time, each tick a third of dt); (0, 1000].
+        max_lag: with ``cut_in_background``, steps an event may stay in flight before the loop
+            waits for its edit (None: never; 1: each edit lands two steps after its event, so
+            the wound is the same run to run whatever the machine's load).
 
     Returns:
         The metrics, the time series and the final mesh.
     """
     check_pace(pace, cut_in_background)
+    if max_lag is not None and not cut_in_background:
+        raise InputError(f"max_lag: {max_lag!r} bounds the edits of a cut in the background "
+                         "(--cut-in-background); without it every edit lands in its own step")
     background = bool(cut_in_background) and scene.physics.cutting
-    model, sim, path, steps_per_frame = prepare_simulation(scene, cut_in_background=background)
+    model, sim, path, steps_per_frame = prepare_simulation(scene, cut_in_background=background, max_lag=max_lag)
     try:
         series, ticks, wall = _step_frames(scene, sim, path, steps_per_frame, quiet, observers,
                                            Pacer(sim.dt / pace) if background else None)
@@ -276,7 +282,8 @@ def write_outputs(result: RunResult, out_dir) -> list[Path]:
 
 def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
                      usd_chunk: int = DEFAULT_CHUNK_FRAMES, quiet: bool = True,
-                     cut_in_background: bool = False, pace: float = 1.0) -> tuple[RunResult, list[Path]]:
+                     cut_in_background: bool = False, pace: float = 1.0,
+                     max_lag: int | None = None) -> tuple[RunResult, list[Path]]:
     """Run ``scene`` and write everything a run writes into ``out_dir``: metrics.json,
     timeseries.csv, final_mesh.ply, incision_profile.csv (with cutting), the pictures and
     (``usd``) the USD playback file.
@@ -292,6 +299,7 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
         quiet: no progress bar.
         cut_in_background: cut in a worker, the loop paced at real time (``run_scene``).
         pace: with ``cut_in_background``, the pace as a multiple of real time (``run_scene``).
+        max_lag: with ``cut_in_background``, steps an event may stay in flight (``run_scene``).
 
     Returns:
         The run's result and the paths written.
@@ -305,7 +313,8 @@ def run_to_directory(scene: Scene, out_dir, *, usd: bool = True, usd_path=None,
         recorder = UsdRecorder(usd_path or out / f"{scene.name}.usdc", scene, chunk_frames=usd_chunk)
     try:
         result = run_scene(scene, quiet=quiet, observers=[final] + ([recorder] if recorder else []),
-                           cut_in_background=cut_in_background, pace=pace)
+                           cut_in_background=cut_in_background, pace=pace,
+                           max_lag=max_lag)
     except WarpCutError:
         if recorder is not None:  # bad input or unstable: leave nothing behind
             recorder.abort()

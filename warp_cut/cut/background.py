@@ -52,6 +52,9 @@ __all__ = ["BackgroundCutter"]
 
 _START_TIMEOUT_S = 120.0
 """How long the worker may take to start (import Warp, load the cut's kernels) [s]."""
+ANSWER_TIMEOUT_S = 60.0
+"""How long the loop waits for an answer it needs now (an edit it must apply, a query) before
+it takes the worker for hung [s]: an event takes it milliseconds."""
 
 
 class _LipPairs:
@@ -72,16 +75,19 @@ class _Resources:
     def __init__(self, process, conn):
         self.process, self.conn = process, conn
         self.shared: SharedPositions | None = None
+        self.hung = False
+        """The worker stopped answering: it is killed, not asked to stop."""
 
     def release(self) -> None:
-        if self.process.is_alive():
+        """Stop the worker (asked first, unless it has hung), close the pipe, free the buffer."""
+        if self.process.is_alive() and not self.hung:
             try:
                 self.conn.send(("stop", None))
                 self.process.join(timeout=5.0)
             except (BrokenPipeError, OSError):
                 pass
         if self.process.is_alive():
-            self.process.terminate()
+            self.process.kill()  # a hung (even a stopped) process ends only so
             self.process.join(timeout=5.0)
         self.conn.close()
         if self.shared is not None:
@@ -157,6 +163,8 @@ class BackgroundCutter:
         self.loop_ms: dict[str, list[float]] = {"send": [], "receive": [], "apply": []}
         """The loop's share of each event [ms]: sending it, receiving its edit, applying it
         (each in a step of its own)."""
+        self.answer_timeout = ANSWER_TIMEOUT_S
+        """How long the loop waits for an answer it needs now before it gives the worker up [s]."""
         self._start()
 
     def _start(self) -> None:
@@ -173,7 +181,7 @@ class BackgroundCutter:
             self.close()
             raise CutWorkerError(
                 f"{err}. The worker is a new Python process that imports the main script: a script "
-                "that makes a Simulator with cut_in_background must do so under "
+                "that makes a Simulator that cuts in a worker (CutSettings(worker=True)) must do so under "
                 "'if __name__ == \"__main__\":' (see the worker's own error above)") from err
 
     # ----------------------------------------------------------------- the loop's side
@@ -256,7 +264,7 @@ class BackgroundCutter:
 
     def _receive(self) -> None:
         try:
-            answer, seconds = self._expect("done")
+            answer, seconds = self._expect("done", timeout=self.answer_timeout)
         except CutWorkerError as err:  # the replica is unknown now: the cut stops here
             self._failed = str(err)
             raise
@@ -265,14 +273,20 @@ class BackgroundCutter:
         self.worker_ms.append(1e3 * seconds)
 
     def _apply(self, sim) -> None:
+        """Apply the edits received; one that fails leaves the loop's model neither the
+        replica's nor what it was, so the cut stops for good (every later step raises)."""
         (edits, summary), self._received = self._received, None
         self.lag_steps.append(self._in_flight + 1)
-        at_event, now = self._resources.shared.array, sim.state.positions.numpy()
-        arrived = [edit.positions_now(at_event, now) for edit in edits]  # before any slot is reused
-        for edit, positions in zip(edits, arrived):
-            edit.apply_to(self.model)
-            sim.notify_model_changed(edit.change.with_positions(positions))
-            self.edits_applied += 1
+        try:
+            at_event, now = self._resources.shared.array, sim.state.positions.numpy()
+            arrived = [edit.positions_now(at_event, now) for edit in edits]  # before any slot is reused
+            for edit, positions in zip(edits, arrived):
+                edit.apply_to(self.model)
+                sim.notify_model_changed(edit.change.with_positions(positions))
+                self.edits_applied += 1
+        except Exception as err:  # noqa: BLE001 - the tissue is unknown now: reported, for good
+            self._failed = f"applying the cut worker's edit failed: {type(err).__name__}: {err}"
+            raise CutWorkerError(self._failed) from err
         self.summary = summary
 
     # ----------------------------------------------------------------- the Cutter's answers
@@ -332,7 +346,7 @@ class BackgroundCutter:
             raise InputError(f"BackgroundCutter.{name}: an edit is in flight; call "
                              "sim.cutter.flush(sim) first, then read sim.positions")
         self._post(("call", (name, args)))
-        return self._expect("done")[0]
+        return self._expect("done", timeout=self.answer_timeout)[0]
 
     def metrics(self, positions: np.ndarray) -> dict:
         """``Cutter.metrics``, computed by the worker (after ``flush(sim)``)."""
@@ -372,8 +386,9 @@ class BackgroundCutter:
     def _expect(self, kind: str, timeout: float | None = None):
         """The worker's next answer, which must be ``kind``; its failures raised here."""
         if timeout is not None and not self._conn.poll(timeout):
+            self._resources.hung = True
             self.close()
-            raise CutWorkerError(f"the cut's worker process did not answer within {timeout:g} s")
+            raise CutWorkerError(f"the cut's worker process did not answer within {timeout:g} s (hung); it was stopped")
         try:
             got, payload = self._conn.recv()
         except (EOFError, OSError) as err:
