@@ -109,42 +109,44 @@ def test_pool_runs_every_scenario_as_warp_cut_run_does(pool_run, tmp_path):
     assert int(row["steps"]) == m["steps"] and m["max_tool_force_n"] > 0
 
 
-def _kill_a_busy_worker(client, out, proc) -> tuple:
-    """Once a scenario has been committed, SIGKILL the process of a worker that is
-    processing one; returns (worker address, its task keys, pid)."""
-    while proc.poll() is None:
-        if _finished(out):
-            busy = {w: keys for w, keys in client.processing().items() if keys}
-            if busy:
-                worker, keys = next(iter(busy.items()))
-                pid = client.run(os.getpid, workers=[worker])[worker]
-                os.kill(pid, signal.SIGKILL)
-                return worker, keys, pid
+def _gated_worker(gate: Path, proc) -> tuple[int, str]:
+    """(pid, task key) of the first worker whose scenario reached the gate (tests/dask_gate.py)."""
+    deadline = time.monotonic() + 300
+    while not (started := sorted(gate.glob("started-*"))):
+        assert proc.poll() is None, f"the batch ended before a scenario started: {proc.communicate()}"
+        assert time.monotonic() < deadline, "no scenario reached the gate"
         time.sleep(0.02)
-    raise AssertionError(f"the batch ended before a worker could be killed: {proc.communicate()}")
+    return int(started[0].name.split("-")[1]), started[0].read_text()
 
 
 def test_dask_cluster_gives_identical_metrics_after_losing_a_worker(pool_run, tmp_path):
     distributed = pytest.importorskip("distributed")
+    import dask_gate
+
     sweep, pool_out, _ = pool_run
-    out = tmp_path / "dask"
+    out, gate = tmp_path / "dask", tmp_path / "gate"
+    gate.mkdir()
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   host="127.0.0.1", dashboard_address=None) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
-        proc = subprocess.Popen([sys.executable, "-m", "warp_cut.cli", "batch", sweep, "--out",
-                                 str(out), "--scheduler", cluster.scheduler_address, "--quiet"],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         with distributed.Client(cluster.scheduler_address) as client:
+            client.wait_for_workers(2)
+            client.run(dask_gate.install, str(gate))  # scenarios wait for the test's word
+            proc = subprocess.Popen([sys.executable, "-m", "warp_cut.cli", "batch", sweep, "--out",
+                                     str(out), "--scheduler", cluster.scheduler_address, "--quiet"],
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             try:
-                # a worker killed mid-scenario: the scheduler gives its tasks to another
-                _, keys, _ = _kill_a_busy_worker(client, out, proc)
+                # a worker killed while its scenario is certainly unfinished (held at the gate):
+                # the scheduler gives the scenario to another worker
+                pid, key = _gated_worker(gate, proc)
+                os.kill(pid, signal.SIGKILL)
+                (gate / "open").touch()
                 stdout, stderr = proc.communicate(timeout=300)
             finally:
                 if proc.poll() is None:
                     proc.kill()
-            for key in keys:  # each of its tasks was given to a worker twice
-                story = client.story(key)  # scheduler events: ("scheduler", key, from, to, ...)
-                assert sum(1 for e in story if e[0] == "scheduler" and e[3] == "processing") >= 2, story
+            story = client.story(key)  # scheduler events: ("scheduler", key, from, to, ...)
+            assert sum(1 for e in story if e[0] == "scheduler" and e[3] == "processing") >= 2, story
     assert proc.returncode == 0, stderr
     assert "4 scenarios (0 already done): 4 ok" in stdout and "lost" not in stdout + stderr
     assert _entries(out) == _entries(pool_out)
