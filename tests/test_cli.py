@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from warp_cut.cli import main
+from warp_cut.io.usd_check import check_usd, validate_usd
 from warp_cut.runner import TIMESERIES_COLUMNS, run_scene
 from warp_cut.scene import load_scene
 from warp_cut.ticks import Pacer
@@ -17,20 +18,33 @@ from warp_cut.ticks import Pacer
 FAST = ["--set", "duration=0.1", "--set", "tissue.size=[0.03,0.02]"]
 
 
-def test_run_default_scene_writes_metrics_and_timeseries(tmp_path):
-    out = tmp_path / "run"
-    assert main(["run", "--out", str(out), "--quiet"] + FAST) == 0
+DEFAULT_RUN = ["--set", "tissue.size=[0.05,0.03]", "--set", "duration=0.8"]
+"""The default scene on a 5 x 3 cm patch until its cut is 1 cm long."""
+
+
+@pytest.fixture(scope="module")
+def default_run(tmp_path_factory):
+    """``warp-cut run`` of the default scene (DEFAULT_RUN), its USD included: the directory."""
+    out = tmp_path_factory.mktemp("default") / "run"
+    assert main(["run", "--out", str(out), "--quiet"] + DEFAULT_RUN) == 0
+    return out
+
+
+def test_run_default_scene_writes_metrics_and_timeseries(default_run):
+    out = default_run
     metrics = json.loads((out / "metrics.json").read_text())
     for key in ("name", "nodes", "springs", "triangles", "steps", "dt", "substeps", "sim_time_s",
                 "wall_time_s", "realtime_factor", "first_contact_time_s", "first_contact_point",
                 "max_tool_force_n", "finite"):
         assert key in metrics
-    assert metrics["finite"] is True and metrics["sim_time_s"] == pytest.approx(0.1)
-    assert metrics["steps"] * metrics["dt"] == pytest.approx(0.1)
+    assert metrics["finite"] is True and metrics["sim_time_s"] == pytest.approx(0.8)
+    assert metrics["steps"] * metrics["dt"] == pytest.approx(0.8)
     rows = list(csv.reader((out / "timeseries.csv").open()))
     assert rows[0] == TIMESERIES_COLUMNS + ["incision_width_m"]  # the default scene cuts
-    assert len(rows) == 1 + 1 + round(0.1 * 60)
+    assert len(rows) == 1 + 1 + round(0.8 * 60)
     assert (out / "final_mesh.ply").is_file()
+    usd = out / "straight_incision.usdc"
+    assert check_usd(usd) == [] and validate_usd(usd) == []
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary left
 
 
@@ -78,14 +92,11 @@ class _LastFrame:
         pass
 
 
-def test_final_mesh_ply_is_the_model_at_the_end_of_the_run(tmp_path):
-    out = tmp_path / "run"
-    args = ["--set", "tissue.size=[0.05,0.03]", "--set", "duration=0.8"]  # the cut is 1 cm long
-    assert main(["run", "--out", str(out), "--quiet", "--no-usd"] + args) == 0
-    ply = read_ply(out / "final_mesh.ply")
+def test_final_mesh_ply_is_the_model_at_the_end_of_the_run(default_run):
+    ply = read_ply(default_run / "final_mesh.ply")
     # the same run in this process (runs are deterministic on the CPU), kept to its end
     last = _LastFrame()
-    run_scene(load_scene(None, [a for a in args if a != "--set"]), observers=[last])
+    run_scene(load_scene(None, [a for a in DEFAULT_RUN if a != "--set"]), observers=[last])
     model, x = last.sim.model, last.sim.positions
     live = np.flatnonzero(model.active)
     assert len(live) < model.node_count  # the cut deleted nodes: the numbering is compacted

@@ -162,14 +162,23 @@ def test_scripted_cut_changes_the_topology_and_marks_the_wound(cut_run):
     assert status.incisions == 1 and status.cut_events > 20 and status.error is None
 
 
-def test_save_writes_what_warp_cut_run_writes(cut_run, tmp_path):
+@pytest.fixture(scope="module")
+def reference_run(tmp_path_factory):
+    """What ``warp-cut run`` writes for the same scene (a short run: the files, not their values)."""
+    ref = tmp_path_factory.mktemp("reference") / "ref"
+    assert main(["run", "--quiet", "--out", str(ref), "--set", "duration=0.05"] +
+                [f"--set={s}" for s in SMALL]) == 0
+    usd = ref / "straight_incision.usdc"
+    assert check_usd(usd) == [] and validate_usd(usd) == []
+    return ref
+
+
+def test_save_writes_what_warp_cut_run_writes(cut_run, reference_run, tmp_path):
     live, _ = cut_run
     out = tmp_path / "live"
     paths = live.save(out)
     assert all(p.is_file() for p in paths)
-    ref = tmp_path / "ref"
-    assert main(["run", "--quiet", "--out", str(ref), "--set", "duration=0.05"] +
-                [f"--set={s}" for s in SMALL]) == 0
+    ref = reference_run
     assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in ref.iterdir())
     usd = out / "straight_incision.usdc"
     assert check_usd(usd) == [] and validate_usd(usd) == []

@@ -265,17 +265,6 @@ def _interrupt(proc, port, host="127.0.0.1"):
     assert _port_is_free(port, host)
 
 
-@needs_proc
-def test_live_command_serves_127_0_0_1_until_ctrl_c_and_frees_its_port():
-    proc, url, port = _serve(["live", "skin_press", "--set", "tissue.size=[0.03,0.02]"])
-    try:
-        assert _listening_addresses(proc.pid, port) == ["127.0.0.1"]  # no --host: loopback
-        with urllib.request.urlopen(url, timeout=30) as page:
-            assert page.status == 200 and b"<html" in page.read().lower()
-    finally:
-        _interrupt(proc, port)
-
-
 def _children(pid: int) -> list[int]:
     """Processes whose parent is ``pid`` (from /proc)."""
     kids = []
@@ -289,14 +278,18 @@ def _children(pid: int) -> list[int]:
     return kids
 
 
-@pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to find the worker process")
-def test_ctrl_c_stops_the_background_cut_worker_too():
-    """With --cut-in-background, Ctrl-C stops the server, the simulation and the worker, with
-    no traceback from any of them."""
-    proc, url, port = _serve(["live", "--cut-in-background", "--set", "tissue.size=[0.03,0.02]"])
+@needs_proc
+def test_live_command_serves_127_0_0_1_and_ctrl_c_stops_it_and_its_worker():
+    """``warp-cut live skin_press --cut-in-background``: the page is served from a socket bound to
+    127.0.0.1 (no --host); Ctrl-C stops the server, the simulation and the cut's worker, with
+    no traceback from any of them, and frees the port."""
+    proc, url, port = _serve(["live", "skin_press", "--cut-in-background", "--set", "tissue.size=[0.03,0.02]"])
     workers = _children(proc.pid)
     try:
         assert workers, "no worker process"
+        assert _listening_addresses(proc.pid, port) == ["127.0.0.1"]
+        with urllib.request.urlopen(url, timeout=30) as page:
+            assert page.status == 200 and b"<html" in page.read().lower()
         for worker in workers:  # a terminal's Ctrl-C reaches the whole process group
             os.kill(worker, signal.SIGINT)
     finally:

@@ -4,6 +4,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -40,12 +41,23 @@ class _Positions:
         pass
 
 
-def test_stage_holds_every_frame_of_the_run(tmp_path):
-    scene = load_scene("skin_press", TINY + ["duration=0.3"])  # no cut: positions only
-    path = tmp_path / "run" / "press.usdc"
-    rec = UsdRecorder(path, scene, chunk_frames=4)
-    ref = _Positions()
-    result = run_scene(scene, observers=[ref, rec])
+@pytest.fixture(scope="module")
+def press_run(tmp_path_factory):
+    """One run of skin_press (TINY for 0.3 s, no cut: positions only) recorded twice in chunks
+    of 4 frames: ``plain`` as it goes, ``flushed`` with a flush at frame 6 (``flush`` read the
+    stage on disk right then); ``ref`` holds every frame's positions."""
+    scene = load_scene("skin_press", TINY + ["duration=0.3"])
+    root = tmp_path_factory.mktemp("press")
+    plain = UsdRecorder(root / "plain" / "press.usdc", scene, chunk_frames=4)
+    flushed = UsdRecorder(root / "flushed" / "press.usdc", scene, chunk_frames=4)
+    ref, flush = _Positions(), _FlushAt(flushed, 6)  # chunk 1 holds frames 4-6, the next starts at 7
+    result = run_scene(scene, observers=[ref, plain, flushed, flush])
+    return SimpleNamespace(scene=scene, result=result, ref=ref, plain=Path(plain.path),
+                           flushed=Path(flushed.path), flush=flush)
+
+
+def test_stage_holds_every_frame_of_the_run(press_run):
+    scene, result, ref, path = press_run.scene, press_run.result, press_run.ref, press_run.plain
     frames = scene.frame_count
     assert result.metrics["usd_frames"] == frames + 1 == len(ref.frames)
     stage = Usd.Stage.Open(str(path))
@@ -75,7 +87,7 @@ def test_stage_holds_every_frame_of_the_run(tmp_path):
     # topology: triangles of the model, authored once per chunk file only (no cut here)
     assert np.array_equal(np.array(mesh.GetFaceVertexIndicesAttr().Get(5)).reshape(-1, 3),
                           scene.build_model().triangles)
-    assert len(list((tmp_path / "run" / "press_clips").glob("press.*.usdc"))) == -(-(frames + 1) // 4)
+    assert len(list((path.parent / "press_clips").glob("press.*.usdc"))) == -(-(frames + 1) // 4)
     _assert_valid(path)
 
 
@@ -242,12 +254,21 @@ def test_chunks_bound_the_frames_held_in_memory(tmp_path):
 
 
 # ------------------------------------------------------------------ command line
-def test_cli_usd_options(tmp_path):
-    base = ["run", "skin_press", "--quiet", "--set", TINY[0], "--set", TINY[1]]
-    out = tmp_path / "a"
-    assert main(base + ["--out", str(out)]) == 0
-    assert (out / "skin_press.usdc").is_file()
-    _assert_valid(out / "skin_press.usdc")
+CLI_RUN = ["run", "skin_press", "--quiet", "--set", TINY[0], "--set", TINY[1]]
+
+
+@pytest.fixture(scope="module")
+def chunked_cli_run(tmp_path_factory):
+    """``warp-cut run`` of skin_press (TINY) with the USD in chunks of 2 frames: the directory."""
+    out = tmp_path_factory.mktemp("cli") / "f"
+    assert main(CLI_RUN + ["--out", str(out), "--usd-chunk", "2"]) == 0
+    return out
+
+
+def test_cli_usd_options(chunked_cli_run, tmp_path):
+    base = CLI_RUN
+    assert (chunked_cli_run / "skin_press.usdc").is_file()  # by default OUT/<scene name>.usdc
+    _assert_valid(chunked_cli_run / "skin_press.usdc")
     out = tmp_path / "b"
     assert main(base + ["--out", str(out), "--no-usd"]) == 0
     assert not list(out.glob("*.usd*")) and not list(out.glob("*_clips"))
@@ -305,10 +326,8 @@ def test_killed_run_keeps_the_frames_written(tmp_path):
     _assert_valid(root)
 
 
-def test_flatten_gives_one_file_with_the_same_animation(tmp_path):
-    out = tmp_path / "f"
-    assert main(["run", "skin_press", "--quiet", "--out", str(out), "--usd-chunk", "2", "--set", TINY[0],
-                 "--set", TINY[1]]) == 0
+def test_flatten_gives_one_file_with_the_same_animation(chunked_cli_run, tmp_path):
+    out = chunked_cli_run
     flat = tmp_path / "flat.usda"
     assert main(["usd-flatten", str(out / "skin_press.usdc"), str(flat)]) == 0
     assert "clips" not in flat.read_text()
@@ -342,14 +361,9 @@ class _FlushAt:
         pass
 
 
-def test_flush_mid_chunk_writes_the_frames_so_far_and_recording_goes_on(tmp_path):
-    scene = load_scene("skin_press", TINY + ["duration=0.3"])
-    path = tmp_path / "run" / "press.usdc"
-    rec = UsdRecorder(path, scene, chunk_frames=4)
-    ref = _Positions()
-    flush = _FlushAt(rec, 6)  # chunk 1 holds frames 4-6, the next chunk starts at 7
-    run_scene(scene, observers=[ref, rec, flush])
-    end, on_disk, expected = flush.seen
+def test_flush_mid_chunk_writes_the_frames_so_far_and_recording_goes_on(press_run):
+    scene, ref, path = press_run.scene, press_run.ref, press_run.flushed
+    end, on_disk, expected = press_run.flush.seen
     assert end == 6 and np.array_equal(on_disk, expected)
     stage = Usd.Stage.Open(str(path))
     assert stage.GetEndTimeCode() == scene.frame_count
