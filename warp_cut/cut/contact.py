@@ -24,25 +24,41 @@ from ..sim.control import Tool
 from ..sim.model import TissueModel
 from .incision import Incision, closest_on_polyline
 from .surface import Crossing, locate_crossing
-from .swept_volume import HitLists
-from .topology import TopologyEditor
 
-__all__ = ["BladeContact"]
+__all__ = ["BladeContact", "HitLists"]
+
+
+class HitLists:
+    """Compact hit lists from the cut's kernels (int32 slots), grown when they overflow."""
+
+    def __init__(self, device):
+        self.device = device
+        self.buffer = wp.zeros(1024, dtype=wp.int32, device=device)
+        self.count = wp.zeros(1, dtype=wp.int32, device=device)
+
+    def run(self, kernel, dim, inputs) -> np.ndarray:
+        """Launch ``kernel`` over ``dim`` threads with ``inputs`` and the hit buffer; the hits
+        as an int64 array (k,)."""
+        while True:
+            self.count.zero_()
+            wp.launch(kernel, dim=dim, device=self.device, inputs=inputs + [self.buffer, self.count])
+            n = int(self.count.numpy()[0])
+            if n <= self.buffer.shape[0]:
+                return self.buffer.numpy()[:n].astype(np.int64)
+            self.buffer = wp.zeros(2 * n, dtype=wp.int32, device=self.device)
 
 
 class BladeContact:
     """The contact tests of a cut on ``model``.
 
     Args:
-        model: The tissue being cut.
-        editor: Its topology editor (node -> triangles adjacency).
+        model: The tissue being cut (its topology index gives the triangles at a node).
         hits: The hit lists the node kernel writes into.
         spacing: The mesh spacing [m].
     """
 
-    def __init__(self, model: TissueModel, editor: TopologyEditor, hits: HitLists, spacing: float):
+    def __init__(self, model: TissueModel, hits: HitLists, spacing: float):
         self.model = model
-        self.editor = editor
         self.hits = hits
         self.spacing = float(spacing)
         self.exit_margin = 0.5 * self.spacing
@@ -53,7 +69,7 @@ class BladeContact:
         """(the crossing of ``tool``'s axis with the skin, or None; positions [m] (k, 3) of the
         skin near the tool it was looked for in). ``x``: the node positions [m] of ``sim`` (the
         CutHost)."""
-        nodes, corners = self.skin_near(sim, tool, x)
+        nodes, _, corners = self.skin_near(sim, tool, x)
         skin = x[nodes]
         return self.locate(tool, skin, self.model.points[nodes], corners), skin
 
@@ -65,19 +81,26 @@ class BladeContact:
                                fit_radius=tool.radius + 1.5 * self.spacing, exclude=1.5 * tool.radius,
                                rest_positions=rest)
 
-    def skin_near(self, sim, tool: Tool, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(live nodes within 1.5 tool radii + 3 spacings of its axis (k,), corner positions
-        [m] of the live triangles at them (m, 3, 3))."""
+    def skin_near(self, sim, tool: Tool, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(live nodes within 1.5 tool radii + 3 spacings of its axis (k,), the live triangles
+        at them (m,), their corner positions [m] (m, 3, 3))."""
         nodes = self.nodes_near(sim, tool.p0, tool.p1, 1.5 * tool.radius + 3.0 * self.spacing)
+        tris = np.array(self.model.index.triangles_at(nodes), dtype=np.int64)
         corner_table = self.model.triangle_table.column("corners")
-        tris = sorted({t for v in nodes for t in self.editor.node_triangles[v]})
-        corners = x[corner_table[tris]].astype(np.float64) if tris else np.zeros((0, 3, 3))
-        return nodes, corners
+        corners = x[corner_table[tris]].astype(np.float64) if len(tris) else np.zeros((0, 3, 3))
+        return nodes, tris, corners
 
     def nodes_near(self, sim, a, b, radius: float) -> np.ndarray:
-        """Live nodes within ``radius`` [m] of segment a-b (one thread per node slot)."""
+        """Live nodes within ``radius`` [m] of segment a-b where they are now (one thread per
+        node slot)."""
         return self.hits.run(segment_node_hits, self.model.node_count, [
             sim.state.positions, sim.device_model.node_flags, wp.vec3(*a), wp.vec3(*b), float(radius)])
+
+    def nodes_near_at_rest(self, sim, a, b, radius: float) -> np.ndarray:
+        """Live nodes whose rest position lies within ``radius`` [m] of segment a-b."""
+        return self.hits.run(segment_node_hits, self.model.node_count, [
+            sim.device_model.rest_positions, sim.device_model.node_flags, wp.vec3(*a), wp.vec3(*b),
+            float(radius)])
 
     def can_start(self, sim, tool: Tool, crossing: Crossing | None) -> bool:
         """True if an incision may start at ``crossing``: the blade is in the skin, its axis
@@ -90,9 +113,9 @@ class BladeContact:
         return len(self.nodes_near(sim, tool.p0, tool.p1, tool.radius + 0.5 * self.spacing)) > 0
 
     def first_crossing(self, sim, poses: list[Tool], x: np.ndarray, rest: np.ndarray,
-                       corners: np.ndarray) -> Crossing | None:
-        """The crossing of the earliest pose whose axis crosses the skin where an incision may
-        start (binary search: the tool goes in once between two events)."""
+                       corners: np.ndarray) -> tuple[Crossing, Tool] | None:
+        """(the crossing, the pose) of the earliest of ``poses`` whose axis crosses the skin
+        where an incision may start (binary search: the tool goes in once between two events)."""
         lo, hi, found = 0, len(poses) - 1, None
         while lo <= hi:
             mid = (lo + hi) // 2
@@ -100,7 +123,7 @@ class BladeContact:
             if not self.can_start(sim, poses[mid], hit):
                 lo = mid + 1
             else:
-                found, hi = hit, mid - 1
+                found, hi = (hit, poses[mid]), mid - 1
         return found
 
     def in_own_opening(self, inc: Incision, tool: Tool) -> bool:
@@ -109,7 +132,7 @@ class BladeContact:
         ``exit_margin``. A thick tool crossing an earlier wound leaves no skin on one side of
         its axis until this event's lips are made, so no crossing is found there; the tool has
         not left the skin for that."""
-        end, normal = inc.path[-1], inc.normals[-1]
+        end, normal = inc.contact_path[-1], inc.contact_normals[-1]
         return self.at_the_end_of(inc, tool) and float((tool.p0 - end) @ normal) <= self.exit_margin
 
     def drawn_out(self, incisions: list[Incision], poses: list[Tool], tip_before: np.ndarray | None) -> bool:
@@ -122,12 +145,12 @@ class BladeContact:
             return False
         inc = incisions[-1]
         before = poses[0].p0 if tip_before is None else tip_before
-        return float((poses[-1].p0 - before) @ inc.normals[-1]) > 0.0 and self.at_the_end_of(inc, poses[-1])
+        return float((poses[-1].p0 - before) @ inc.contact_normals[-1]) > 0.0 and self.at_the_end_of(inc, poses[-1])
 
     def at_the_end_of(self, inc: Incision, tool: Tool) -> bool:
         """True if the tool's axis passes within 2 sweep radii + a spacing of the last point
         ``inc`` cut."""
-        _, _, _, from_axis = closest_on_polyline(inc.path[-1][None], np.stack([tool.p0, tool.p1]))
+        _, _, _, from_axis = closest_on_polyline(inc.contact_path[-1][None], np.stack([tool.p0, tool.p1]))
         return bool(from_axis[0] <= 2.0 * inc.sweep_radius + self.spacing)
 
     def through_an_opening(self, inc: Incision, tool: Tool, skin: np.ndarray) -> bool:
@@ -140,5 +163,5 @@ class BladeContact:
         blade the skin fell away from, or lifted out, has."""
         if len(skin) < 3:
             return False
-        heights = (tool.p0 - skin.astype(np.float64)) @ inc.normals[-1]
+        heights = (tool.p0 - skin.astype(np.float64)) @ inc.contact_normals[-1]
         return bool(np.median(heights) <= self.exit_margin)

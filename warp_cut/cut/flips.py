@@ -1,18 +1,14 @@
-"""Edge flips among the triangles a cut made: slivers out, and a prestressed strip made Delaunay.
+"""Edge flips among the triangles a cut made: a prestressed strip made Delaunay in the rest shape.
 
-Stage 3 fills each hole as the tool passes, so a fill made next to the moving tool can leave
-a sliver (a triangle with an angle under SLIVER_DEG, SPEC section 4). Once the tool has left
-the skin nothing moves the cut any more, and a sliver that shares its longest edge with
-another triangle the cut made is flipped (Lawson's flip: the quad's other diagonal) where that
-raises the pair's smallest angle and both new triangles face the skin's side the old pair did.
-
-In a prestressed sheet the rest shape also decides what each spring carries: an edge gets
+Each event's fill is Delaunay within its region (``warp_cut.cut.fill``); the edges where two
+events' regions meet need not be. In a prestressed sheet the rest shape decides what each
+spring carries: an edge gets
 the cotangent tension (T/2)(cot a + cot b)|e| from the angles a, b opposite it, which is
 negative (a compressed spring) where a + b > 180 deg, i.e. where the edge is not locally
 Delaunay. The strip the fills leave beside the wound depends on where each event happened to
-cut (long diagonals across two or three lips, fans), and its springs then hold the lips
-unevenly: the opening measured at the lips scattered by +-15 % with the event interval. So
-once an incision is complete the edges between two triangles the cut made are flipped until
+cut, and its springs then hold the lips unevenly (the opening measured at the lips scattered
+with the event interval). So once an incision is complete the edges between two triangles the
+cut made are flipped until
 each is locally Delaunay in the rest shape (Lawson's algorithm), where the new pair faces the
 skin's side in the rest shape and at the current positions and is no sliver where the nodes
 are now.
@@ -28,7 +24,7 @@ import numpy as np
 from ..mesh.geometry import SLIVER_DEG, cross3, edge_keys, half_edges, triangle_angles, triangle_min_angles
 from .classes import SpringClass
 
-__all__ = ["flip_slivers", "flip_to_delaunay", "FACING_COS", "DELAUNAY_TOLERANCE_DEG", "OLD_PAIR", "NEW_PAIR"]
+__all__ = ["flip_to_delaunay", "FACING_COS", "DELAUNAY_TOLERANCE_DEG", "OLD_PAIR", "NEW_PAIR"]
 
 FACING_COS = 0.5
 """A flipped triangle's normal must lie within 60 degrees of the old pair's mean normal."""
@@ -49,21 +45,6 @@ def _normal(x: np.ndarray) -> np.ndarray:
     n = cross3(x[1] - x[0], x[2] - x[0])
     length = np.linalg.norm(n)
     return n / length if length > 0 else n
-
-
-def _flip_of(editor, t: int, positions) -> tuple | None:
-    """The flip that would take sliver ``t`` out: (its partner u, the two new triangles), across
-    its longest edge where that helps, else the next; None when no edge will do (on the
-    border, a partner the cut did not make is the caller's to refuse, the other diagonal
-    already an edge, no gain in the smallest angle, or a triangle turned away from the skin)."""
-    tri = [int(v) for v in editor.model.triangle_table.column("corners")[t]]
-    x = positions[tri]
-    lengths = [np.linalg.norm(x[(c + 1) % 3] - x[c]) for c in range(3)]
-    for c in np.argsort(lengths)[::-1]:
-        flip = _flip_across(editor, t, tri[c], tri[(c + 1) % 3], tri[(c + 2) % 3], positions)
-        if flip is not None:
-            return flip
-    return None
 
 
 def _other_diagonal(editor, t: int, i: int, j: int, k: int) -> tuple | None:
@@ -93,54 +74,13 @@ def _smallest_angles(quad: np.ndarray) -> tuple[float, float]:
     return float(triangle_min_angles(quad, OLD_PAIR).min()), float(triangle_min_angles(quad, NEW_PAIR).min())
 
 
-def _flip_across(editor, t: int, i: int, j: int, k: int, positions) -> tuple | None:
-    """The flip of t = (i, j, k) across its edge i -> j that raises the pair's smallest angle,
-    or None (see ``_flip_of``)."""
-    other = _other_diagonal(editor, t, i, j, k)
-    if other is None:
-        return None
-    u, l, new = other
-    quad = positions[[i, j, k, l]]
-    old_angle, new_angle = _smallest_angles(quad)
-    if new_angle <= old_angle:
-        return None
-    return (u, new) if _faces_as_before(quad) else None
-
-
-def _apply_flip(editor, candidates: set[int], t: int, u: int, new, positions) -> None:
-    """Replace triangles t and u by ``new`` (their new slots join ``candidates``)."""
+def _apply_flip(editor, candidates: set[int], t: int, u: int, new) -> None:
+    """Replace triangles t and u by ``new`` (their new slots join ``candidates``; the new
+    diagonal's rest length from the rest shape)."""
     editor.delete_triangles([t, u])
     candidates.difference_update((t, u))
     for tri in new:
-        candidates.add(editor.add_triangle(tri, positions, SpringClass.GREEN))
-
-
-def flip_slivers(editor, candidates: set[int], positions, *, rounds: int = 3) -> int:
-    """Flip the slivers among ``candidates`` (live triangle slots the cut made) where a flip
-    helps (``_flip_of``), in an edit already begun on ``editor``; ``positions`` are the current
-    node positions [m] (indexable by node arrays). Repeats up to ``rounds`` passes; returns the
-    flips made. The caller finishes the edit (the stray old diagonal's spring goes then)."""
-    table = editor.model.triangle_table
-    flips = 0
-    for _ in range(rounds):
-        live = np.array(sorted(t for t in candidates if table.alive[t]), dtype=np.int64)
-        if not len(live):
-            break
-        corners = positions[table.column("corners")[live].ravel()]                 # (3 t, 3)
-        angles = triangle_min_angles(corners, np.arange(3 * len(live)).reshape(-1, 3))
-        made = 0
-        for t in live[angles < SLIVER_DEG]:
-            if not table.alive[t]:
-                continue
-            flip = _flip_of(editor, int(t), positions)
-            if flip is None or flip[0] not in candidates:
-                continue
-            _apply_flip(editor, candidates, int(t), *flip, positions)
-            made += 1
-        flips += made
-        if not made:
-            break
-    return flips
+        candidates.add(editor.add_triangle(tri, editor.model.points, SpringClass.GREEN))
 
 
 def _makes_a_sliver(quad: np.ndarray) -> bool:
@@ -210,7 +150,7 @@ def flip_to_delaunay(editor, candidates: set[int], rest: np.ndarray, positions, 
             flip = _delaunay_flip_across(editor, t, i, j, k, rest, positions)
             if flip is None or flip[0] not in candidates:
                 continue
-            _apply_flip(editor, candidates, t, *flip, positions)
+            _apply_flip(editor, candidates, t, *flip)
             made += 1
         flips += made
         if not made:

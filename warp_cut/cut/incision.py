@@ -1,19 +1,19 @@
-"""Incision: the tool's contact path, its Bezier curve (Stage 2) and the lips' stations.
+"""Incision: the blade's path carried into the rest shape, its Bezier curve (Stage 2) and its lips.
 
-The path is the sequence of contact points [m], each with the skin's outward normal there
-(the skin may be curved: every point has its own). The curve is a C1 chain of cubic Bezier
-segments fitted to it within ``tolerance`` (paper Eq. 5-8, ``warp_cut.cut.bezier``); its end
-point is the latest contact point, so the incision's end follows the tool.
+Every cut event finds where the blade crosses the skin as it lies now (``warp_cut.cut.surface``)
+and carries that crossing into the rest (material) shape through the triangle it lies in
+(``warp_cut.cut.material_point``). The incision keeps both: ``path`` (rest points [m], each with
+the rest surface's outward normal there), which the curve is fitted to, and ``contact_path``
+(the crossings where the skin was, each with its normal), which the lips are judged against.
+The curve is a C1 chain of cubic Bezier segments fitted to ``path`` within ``tolerance`` (paper
+Eq. 5-8, ``warp_cut.cut.bezier``); its end point is the latest crossing, so the incision's end
+follows the tool.
 
-The incision is a slit with two lips. Its stations are arc-length positions u along the
-curve: the start (u = 0) and the end (u = length) each carry one node, every interior station
-two, one per lip, offset by +-``lip_offset`` across the curve in the skin's tangent plane
-there (along n x t, n the local normal, t the tangent). Walking around the slit - up the
-left lip, round the end, back down the right lip - gives each point the slit coordinate
-
-    theta = u (left lip),  theta = length (end),  theta = 2 length - u (right lip),  0 (start)
-
-which Stage 3 uses to pair the border of the grey area with the lips.
+The incision is a slit with two lips. Its stations are arc lengths u along the curve, one every
+``spacing`` from the start; a station carries a lip node on each side, at +-``lip_offset`` across
+the curve in the rest surface's tangent plane (along n x t: left is +). The slit ends in one node
+where the blade entered (``start_node``, if it entered the tissue and not an earlier wound) and
+one at the newest crossing (``tip_node``, while the blade is in the tissue).
 """
 
 from __future__ import annotations
@@ -97,10 +97,15 @@ class Incision:
     """
 
     def __init__(self, start_point, normal, *, spacing: float, lip_offset: float,
-                 tolerance: float):
+                 tolerance: float, contact_point=None, contact_normal=None):
         self.path = [np.asarray(start_point, dtype=np.float64)]
+        """Rest points [m] of the blade's crossings, shape (3,) each: what the curve fits."""
         self.normals = [_unit(normal)]
-        """Unit outward normal of the skin at each path point, shape (3,) each."""
+        """Unit outward normal of the rest surface at each path point, shape (3,) each."""
+        self.contact_path = [np.asarray(start_point if contact_point is None else contact_point, np.float64)]
+        """The same crossings where the skin was then [m], shape (3,) each."""
+        self.contact_normals = [_unit(normal if contact_normal is None else contact_normal)]
+        """The skin's unit outward normal at each contact point then, shape (3,) each."""
         self._path_chord = np.zeros(1)
         """Cumulative chord length [m] of the path at each of its points, shape (len(path),)."""
         self._normal_array = np.array(self.normals)
@@ -113,33 +118,34 @@ class Incision:
         self._tail_start = 0
         self._poly = np.repeat(self.path[0][None], 2, axis=0)
         self._cum = np.zeros(2)
-        # interior stations: arc-length u and the node of each lip (-1: none yet)
         self.station_u: list[float] = []
+        """Arc length u [m] of each station, increasing."""
         self.left: list[int] = []
+        """Each station's left lip node (-1: none, where the slit runs into an opening)."""
         self.right: list[int] = []
+        """Each station's right lip node (-1: none)."""
         self.start_node = -1
-        self.end_node = -1
-        self.open_end = True
-        """True while the tool cuts: the slit's tip is then its newest lip pair (joined by an
-        edge), the tissue ahead of it up to the tool is re-closed after each event, and the
-        end node at the curve's end is made only once the tool has gone."""
+        """The node where the slit starts in the tissue (-1: it starts in an opening)."""
+        self.tip_node = -1
+        """The node at the slit's newest end (-1: none yet, or it ends in an opening)."""
+        self.cut_point: np.ndarray | None = None
+        """Rest point [m] (3,) where the last event's cut ended (None: nothing cut yet); the next
+        event cuts on from it."""
         self.sweep_radius = 0.0
         """Radius of the swept circle [m] (set by the Cutter)."""
-        self.anchor = -1
-        """A live node near the tool, where the Cutter starts looking for what it cuts."""
-        self.open_chains: list[list[int]] = []
-        """Borders of holes the last cut event could not fill (retried at the next one)."""
-        self.deferrals = 0
-        """Consecutive events that left a hole open."""
-        self.pending_links: list[tuple[int, int, float, float]] = []
-        """Springs the cut separated whose residual links act once the wound is open there:
-        (node i, node j, rest length [m], arc length u [m] where they crossed the cut)."""
-        self.first_own_spring = 0
-        """Spring slots from this one on were made while this incision cut (slots are never
-        reused): the tissue it re-closed ahead of its tip, whose springs leave no residual
-        link when it cuts them again (the springs they replaced already did)."""
+        self.slit_nodes: set[int] = set()
+        """Every node the incision put on its slit: lips, tip, start, and the points the fill put
+        on the slit's edges."""
+        self.pending_links: list[tuple[float, float]] = []
+        """Separated springs whose residual link waits for a lip pair near where they crossed:
+        (arc length u [m], rest length [m])."""
         self.reached_border = False
-        """True once the cut has opened the skin to the tissue's outer border (a notch)."""
+        """True once the slit has run into an opening or the tissue's edge (it ends there open)."""
+
+    @property
+    def end_node(self) -> int:
+        """The slit's end node (the tip), -1 if none."""
+        return self.tip_node
 
     # ----------------------------------------------------------------- curve
     @property
@@ -152,10 +158,11 @@ class Incision:
         """Unit outward normal of the skin where the incision started, shape (3,)."""
         return self.normals[0]
 
-    def extend(self, point, min_step: float, normal=None) -> bool:
-        """Append a contact point [m] (with the skin's unit ``normal`` there; default the
+    def extend(self, point, min_step: float, normal=None, contact_point=None, contact_normal=None) -> bool:
+        """Append a rest point [m] (with the rest surface's unit ``normal`` there; default the
         last one) and refit; points closer than min_step [m] to the last one are skipped
-        (returns False)."""
+        (returns False). ``contact_point`` / ``contact_normal``: the crossing where the skin was
+        (default: the rest point and normal)."""
         point = np.asarray(point, dtype=np.float64)
         if np.linalg.norm(point - self.path[-1]) < min_step:
             return False
@@ -163,6 +170,8 @@ class Incision:
         self.path.append(point)
         self.normals.append(self.normals[-1] if normal is None else _unit(normal))
         self._normal_array = np.vstack([self._normal_array, self.normals[-1]])
+        self.contact_path.append(point if contact_point is None else np.asarray(contact_point, np.float64))
+        self.contact_normals.append(self.normals[-1] if contact_normal is None else _unit(contact_normal))
         self.curve = self._refit()
         u = np.linspace(0.0, self.curve.segment_count, _SAMPLES_PER_SEGMENT * self.curve.segment_count + 1)
         self._poly = self.curve.evaluate(u)
@@ -249,90 +258,53 @@ class Incision:
         lateral = np.einsum("ij,ij->i", cross3(self.tangent_at(u), x - closest), self.normal_at(u))
         return u, np.where(lateral >= 0.0, 1, -1), dist
 
-    def chart(self, points) -> np.ndarray:
-        """Slit-chart coordinates (m, 2) [m] of points (m, 3): (u, v), u the arc length of the
-        closest curve point and v the signed distance from it (+ left), continued along the
-        tangent beyond either end. The chart follows the curve on curved skin, where any one
-        plane would fold; (u, v) turns counter-clockwise where the skin does about its
-        outward normal."""
-        x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        u, side, dist = self.project(x)
-        v = side * dist
-        ends = np.array([0.0, self.length])
-        for end, mask in zip(ends, (u <= 1e-12, u >= self.length - 1e-12)):
-            if mask.any():
-                t, n = self.tangent_at(end)[0], self.normal_at(end)[0]
-                rel = x[mask] - self.point_at(end)[0]
-                u[mask] = end + rel @ t
-                v[mask] = rel @ cross3(n, t)
-        return np.stack([u, v], axis=1)
-
-    def theta(self, u, side) -> np.ndarray:
-        """Slit coordinate of points at arc length u [m] on a side (+1 left, -1 right)."""
-        u = np.asarray(u, dtype=np.float64)
-        return np.where(np.asarray(side) > 0, u, 2.0 * self.length - u)
-
     # ----------------------------------------------------------------- stations
-    def plan_stations(self, clearance: float | None = None) -> None:
-        """Add interior stations every ``spacing`` (the first as soon as it fits, at least half a
-        spacing from the start), keeping the last one at least ``clearance`` [m] behind the end
-        (default: half a spacing and 1.5 sweep radii): a lip is made once the tool (whose
-        footprint on a tilted surface reaches r / sin(angle) behind the axis) has passed it."""
+    def next_stations(self, upto: float) -> list[float]:
+        """Arc lengths [m] of the stations after the last one, every ``spacing``, up to ``upto``."""
         last = self.station_u[-1] if self.station_u else 0.0
-        if clearance is None:
-            clearance = max(0.5 * self.spacing, 1.5 * self.sweep_radius)
-        if not self.station_u and self.length - clearance >= 0.5 * self.spacing:
-            # the first station as soon as there is room: until it exists the slit has no
-            # opening (its start and end node alone do not part its sides)
-            first = min(self.spacing, self.length - clearance)
-            self.station_u.append(first)
-            self.left.append(-1)
-            self.right.append(-1)
-            last = first
-        while self.length - (last + self.spacing) >= clearance:
-            last += self.spacing
-            self.station_u.append(last)
-            self.left.append(-1)
-            self.right.append(-1)
+        count = int(np.floor((upto - last) / self.spacing + 1e-9))
+        return [last + self.spacing * (k + 1) for k in range(max(0, count))]
+
+    def add_station(self, u: float, left: int, right: int) -> None:
+        """A new station at arc length ``u`` [m] with its lip nodes (-1 for a missing one)."""
+        self.station_u.append(float(u))
+        self.left.append(int(left))
+        self.right.append(int(right))
 
     def lip_position(self, u: float, side: int) -> np.ndarray:
-        """Where a lip node of station u [m] on ``side`` is created [m]."""
+        """Rest position [m] of a lip node of the station at ``u`` [m] on ``side`` (+1 left, -1
+        right; 0: on the curve)."""
         c = self.point_at(u)[0]
         if side == 0:
             return c
         return c + side * self.lip_offset * _unit(cross3(self.normal_at(u)[0], self.tangent_at(u)[0]))
 
-    def lip_nodes(self) -> list[tuple[int, float, int, int]]:
-        """Every lip slot as (node or -1, theta, side, station index): start (side 0, index -1),
-        interior stations on both lips, end (side 0, index -2; once the tool has gone)."""
-        out = [(self.start_node, 0.0, 0, -1)]
-        if not self.open_end:
-            out.append((self.end_node, self.length, 0, -2))
-        for k, u in enumerate(self.station_u):
-            out.append((self.left[k], u, 1, k))
-            out.append((self.right[k], 2.0 * self.length - u, -1, k))
-        return out
+    def lip_node_set(self) -> set[int]:
+        """Every lip, start and tip node of the slit (live or not)."""
+        nodes = {v for v in self.left + self.right if v >= 0}
+        return nodes | {v for v in (self.start_node, self.tip_node) if v >= 0}
 
-    def set_lip_node(self, station: int, side: int, node: int) -> None:
-        if station == -1:
-            self.start_node = node
-        elif station == -2:
-            self.end_node = node
-        elif side > 0:
-            self.left[station] = node
-        else:
-            self.right[station] = node
+    def provisional_nodes(self, active: np.ndarray, points: np.ndarray) -> set[int]:
+        """The live nodes of the slit past its newest live lip pair (the tip, and points the fill
+        put on the edges to it), ``points`` the rest positions by node slot [m]: the next event
+        re-meshes them with the slit it cuts on."""
+        k = self.last_pair(active)
+        keep = {self.start_node} | {v for v in self.left + self.right if v >= 0}
+        nodes = np.array(sorted(v for v in self.slit_nodes - keep if active[v]), dtype=np.int64)
+        if not len(nodes) or k < 0:
+            return set(nodes.tolist())
+        u = self.project(points[nodes])[0]
+        return set(nodes[u >= self.station_u[k]].tolist())
 
-    def tip_u(self, active: np.ndarray) -> float:
-        """Arc length [m] of the slit's tip: its newest station whose two lip nodes live (0,
-        the start, if none)."""
+    def last_pair(self, active: np.ndarray) -> int:
+        """Index of the newest station whose two lip nodes live, or -1."""
         for k in range(len(self.station_u) - 1, -1, -1):
             a, b = self.left[k], self.right[k]
             if a >= 0 and b >= 0 and active[a] and active[b]:
-                return self.station_u[k]
-        return 0.0
+                return k
+        return -1
 
     def pairs(self) -> np.ndarray:
-        """(k, 2) node pairs (left, right) of interior stations that have both lip nodes."""
+        """(k, 2) node pairs (left, right) of the stations that have both lip nodes."""
         pairs = [(a, b) for a, b in zip(self.left, self.right) if a >= 0 and b >= 0]
         return np.array(pairs, dtype=np.int64).reshape(-1, 2)

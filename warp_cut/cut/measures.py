@@ -48,7 +48,8 @@ def gap_profile(incisions: list[Incision], model, positions: np.ndarray) -> dict
 
 
 def lip_deviation(incisions: list[Incision], model, positions: np.ndarray, *, in_plane: bool = True) -> float:
-    """Largest distance [m] of a live lip node from the tool's contact path (a polyline).
+    """Largest distance [m] of a live lip node from the tool's contact path (a polyline of the
+    crossings where the skin was when each was cut).
 
     Args:
         incisions: The incisions whose paths count.
@@ -58,16 +59,16 @@ def lip_deviation(incisions: list[Incision], model, positions: np.ndarray, *, in
             (the incision's shape as seen on the skin); else the distance in 3D.
     """
     lips = np.flatnonzero(model.active & (model.node_class == NodeClass.LIP))
-    paths = [inc for inc in incisions if len(inc.path) > 1]
+    paths = [inc for inc in incisions if len(inc.contact_path) > 1]
     if not len(lips) or not paths:
         return float("nan")
     x = np.asarray(positions, dtype=np.float64)[lips]
     best = np.full(len(lips), np.inf)
     for inc in paths:
-        poly = np.asarray(inc.path)
+        poly = np.asarray(inc.contact_path)
         k, t, closest, dist = closest_on_polyline(x, poly)
         if in_plane:
-            normals = np.asarray(inc.normals)
+            normals = np.asarray(inc.contact_normals)
             n = (1.0 - t)[:, None] * normals[k] + t[:, None] * normals[k + 1]
             n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
             d = x - closest

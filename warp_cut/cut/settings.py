@@ -26,6 +26,8 @@ class CutSettings:
     max_lag: with ``worker``, the steps an event may stay in flight before the loop waits for
         its edit (None: never wait; 1: every edit lands two steps after its event, the same
         run to run).
+    keep_islands: a piece of skin the incisions cut free (an excision) stays as a free piece
+        instead of being removed (default False: removed and counted).
     """
 
     sweep_radius: float | None = None
@@ -36,6 +38,7 @@ class CutSettings:
     lip_offset: float | None = None
     worker: bool = False
     max_lag: int | None = None
+    keep_islands: bool = False
 
     def __post_init__(self):
         for name in ("sweep_radius", "spacing", "tolerance", "lip_offset"):
@@ -46,8 +49,9 @@ class CutSettings:
             raise InputError(f"cutting.interval must be >= 0 s, got {self.interval}")
         if not (np.isfinite(self.force_threshold) and self.force_threshold >= 0):
             raise InputError(f"cutting.force_threshold must be >= 0 N, got {self.force_threshold}")
-        if not isinstance(self.worker, bool):
-            raise InputError(f"cutting.worker must be true or false, got {self.worker!r}")
+        for name in ("worker", "keep_islands"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"cutting.{name} must be true or false, got {getattr(self, name)!r}")
         if self.max_lag is not None:
             if isinstance(self.max_lag, bool) or not isinstance(self.max_lag, (int, np.integer)) or self.max_lag < 1:
                 raise InputError(f"cutting.max_lag must be an integer >= 1 step, or None, got {self.max_lag!r}")

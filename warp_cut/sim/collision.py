@@ -8,7 +8,7 @@ import warp as wp
 from ..kernels.collision import cylinder_contact_mask
 from .control import Tool
 
-__all__ = ["cylinder_contacts"]
+__all__ = ["cylinder_contacts", "pushed_out"]
 
 
 def cylinder_contacts(points, p0, p1, radius: float, device: str = "cpu") -> np.ndarray:
@@ -40,3 +40,29 @@ def cylinder_contacts(points, p0, p1, radius: float, device: str = "cpu") -> np.
     wp.launch(cylinder_contact_mask, dim=len(pts), device=device,
               inputs=[x, wp.vec3(*tool.p0), wp.vec3(*tool.p1), tool.radius, inside])
     return inside.numpy().astype(bool)
+
+
+def pushed_out(points, tool: Tool) -> np.ndarray:
+    """Points (n, 3) [m] moved onto the tool's cylinder surface where they lie inside it (the
+    push-out the kernels apply, along (N - p) / d from the closest axis point p; a point on the
+    axis goes along a fixed perpendicular); the others unchanged. A copy, float64."""
+    x = np.array(points, dtype=np.float64).reshape(-1, 3)
+    axis = tool.p1 - tool.p0
+    length2 = float(axis @ axis)
+    if not len(x) or length2 <= 0.0 or tool.radius <= 0.0:
+        return x
+    t = (x - tool.p0) @ axis / length2
+    closest = tool.p0 + np.clip(t, 0.0, 1.0)[:, None] * axis
+    perp = x - closest
+    d = np.linalg.norm(perp, axis=1)
+    inside = (t >= 0.0) & (t <= 1.0) & (d < tool.radius)
+    if not inside.any():
+        return x
+    a = axis / np.sqrt(length2)
+    fixed = np.cross(a, [0.0, 0.0, 1.0])
+    if np.linalg.norm(fixed) < 1e-3:
+        fixed = np.cross(a, [1.0, 0.0, 0.0])
+    fixed /= np.linalg.norm(fixed)
+    direction = np.where((d > 0.0)[:, None], perp / np.maximum(d, 1e-300)[:, None], fixed[None])
+    x[inside] = closest[inside] + tool.radius * direction[inside]
+    return x

@@ -97,7 +97,7 @@ def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
     cutter, model = sim.cutter, sim.model
     result.incisions = len(cutter.incisions) - before["incisions"]
     mine = cutter.incisions[before["incisions"]:]
-    result.unfilled_holes = sum(len(inc.open_chains) for inc in mine)
+    result.unfilled_holes = cutter.unfilled_holes
     tol = coverage_tolerance(surface.spacing, stroke.radius)
     result.coverage = coverage(stroke, surface, model.points, wound_edges(model, border_keys), tol, before["skin"])
     result.curve_coverage = curve_coverage(stroke, surface, [np.array(i.path) for i in mine], tol)

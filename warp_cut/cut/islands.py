@@ -1,0 +1,80 @@
+"""Pieces of skin a cut frees: an excision's island, found after the edit that closes it.
+
+When a slit runs into an opening (an earlier wound, the tissue's edge), the piece of tissue it
+bounds may come free. The triangles joined through shared edges to those the edit made are
+grown into their connected pieces, all at once, one layer at a time; once only one piece is
+still growing, every other one is finished and smaller, so the search costs what the small
+pieces hold, not the whole tissue. A finished piece that holds no pinned node (or is smaller
+than the one still growing) is an island.
+
+Triangles are slots of the model's triangle table.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["islands_from"]
+
+
+def _neighbours(model, t: int) -> set[int]:
+    """Live triangles sharing a node with triangle ``t`` (a piece held by one node is held)."""
+    index, c = model.index, model.triangle_table.column("corners")[t]
+    out = index.node_triangles[int(c[0])] | index.node_triangles[int(c[1])] | index.node_triangles[int(c[2])]
+    return out - {t}
+
+
+def islands_from(model, seeds, limit: int | None = None) -> list[set[int]]:
+    """The pieces of the mesh reachable from the triangles ``seeds`` that came apart from the
+    rest: every connected piece but the one that is still growing when all the others are done
+    (the tissue), each as its set of triangle slots. ``limit``: stop (no island) once the
+    pieces searched hold this many triangles (default: half the live triangles)."""
+    alive = model.triangle_table.alive
+    seeds = [int(t) for t in seeds if alive[int(t)]]
+    limit = limit or max(1, model.triangle_count // 2)
+    owner: dict[int, int] = {}
+    pieces: list[set[int]] = []
+    fronts: list[list[int]] = []
+    for t in seeds:
+        if t not in owner:
+            owner[t] = len(pieces)
+            pieces.append({t})
+            fronts.append([t])
+    searched = len(owner)
+    while sum(1 for f in fronts if f) > 1 and searched < limit:
+        for k in range(len(fronts)):
+            front, nxt = fronts[k], []
+            for t in front:
+                for n in _neighbours(model, t):
+                    other = owner.get(n)
+                    if other is None:
+                        owner[n] = k
+                        pieces[k].add(n)
+                        nxt.append(n)
+                        searched += 1
+                    elif other != k:  # two seeds' pieces touch: one piece
+                        nxt += fronts[other]
+                        _merge(owner, pieces, fronts, other, k)
+            fronts[k] = nxt
+    if searched >= limit:
+        return []
+    growing = [k for k, f in enumerate(fronts) if f]
+    finished = [k for k, p in enumerate(pieces) if p and k not in growing]
+    if not growing:  # every piece finished: the largest is the tissue
+        largest = max(range(len(pieces)), key=lambda k: len(pieces[k]))
+        finished = [k for k in finished if k != largest]
+    return [pieces[k] for k in finished if _free(model, pieces[k])]
+
+
+def _merge(owner: dict, pieces: list, fronts: list, src: int, dst: int) -> None:
+    """Join piece ``src`` into ``dst`` (they touch); ``src``'s front is the caller's to keep."""
+    for t in pieces[src]:
+        owner[t] = dst
+    pieces[dst] |= pieces[src]
+    pieces[src], fronts[src] = set(), []
+
+
+def _free(model, triangles: set[int]) -> bool:
+    """True if a piece holds no pinned node (a pinned one holds it in place: not freed)."""
+    corners = model.triangle_table.column("corners")[np.fromiter(triangles, dtype=np.int64)]
+    return not model.pinned[np.unique(corners)].any()

@@ -1,0 +1,113 @@
+"""Carrying the blade's crossing from where the skin lies now into the rest (material) shape.
+
+The crossing is a point of the deformed skin. A triangle's barycentric coordinates map a point
+of it from where the tissue lies now to where it rests: an affine map. Right at the blade the
+triangles are the tool's own dent (their nodes pushed onto its cylinder), and the one the axis
+pierces changes from step to step, so the map is taken from the tissue round the blade instead:
+the affine map that best carries the current positions of the nodes near the crossing (those the
+tool pushes left out, Gaussian weights) to their rest positions, in the skin's tangent plane
+there (``affine_material_point``). It is the barycentric map wherever a triangle is carried
+affinely, and it is smooth from event to event. The point is then put on the rest surface (the
+nearest point of the rest triangles) with the rest surface's normal there. A crossing farther
+than a reach from every live triangle lies over an opening (an earlier wound): it has no
+material point.
+
+Shapes: corners (m, 3, 3) [m]; points (3,) [m].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..mesh.geometry import cross3
+
+__all__ = ["MaterialPoint", "closest_on_triangles", "material_point", "affine_material_point"]
+
+
+@dataclass(frozen=True)
+class MaterialPoint:
+    """A crossing carried into the rest shape.
+
+    Attributes:
+        rest: The material point [m], (3,).
+        normal: The rest surface's unit outward normal there, (3,).
+        triangle: Row (into the triangles given) of the triangle it lies in.
+        distance: How far the crossing lay from that triangle [m] (0: on it).
+    """
+
+    rest: np.ndarray
+    normal: np.ndarray
+    triangle: int
+    distance: float
+
+
+def closest_on_triangles(point: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(distance (m,) [m], barycentric coordinates (m, 3) of the closest point) of ``point`` (3,)
+    to each triangle (m, 3, 3)."""
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    n = cross3(b - a, c - a)
+    nn = np.maximum((n * n).sum(axis=1), 1e-300)
+    rel = point[None] - a
+    foot = point[None] - ((rel * n).sum(axis=1) / nn)[:, None] * n
+    lam_b = (cross3(foot - a, c - a) * n).sum(axis=1) / nn
+    lam_c = (cross3(b - a, foot - a) * n).sum(axis=1) / nn
+    lam = np.stack([1.0 - lam_b - lam_c, lam_b, lam_c], axis=1)
+    inside = (lam >= 0.0).all(axis=1)
+    best_d = np.where(inside, np.linalg.norm(point[None] - foot, axis=1), np.inf)
+    best = np.where(inside[:, None], lam, 0.0)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        p, q = corners[:, i], corners[:, j]
+        pq = q - p
+        t = np.clip(((point[None] - p) * pq).sum(axis=1) / np.maximum((pq * pq).sum(axis=1), 1e-300), 0.0, 1.0)
+        d = np.linalg.norm(point[None] - (p + t[:, None] * pq), axis=1)
+        better = ~inside & (d < best_d)
+        edge = np.zeros((len(corners), 3))
+        edge[:, i], edge[:, j] = 1.0 - t, t
+        best_d = np.where(better, d, best_d)
+        best = np.where(better[:, None], edge, best)
+    return best_d, best
+
+
+def material_point(point, current: np.ndarray, rest: np.ndarray, reach: float) -> MaterialPoint | None:
+    """The material point of the crossing ``point`` [m] (3,): through the live triangle (current
+    corners ``current`` (m, 3, 3) [m], rest corners ``rest`` (m, 3, 3) [m]) nearest to it, if
+    within ``reach`` [m]; else None (the crossing is over an opening)."""
+    if not len(current):
+        return None
+    dist, lam = closest_on_triangles(np.asarray(point, dtype=np.float64), np.asarray(current, np.float64))
+    k = int(np.argmin(dist))
+    if dist[k] > reach:
+        return None
+    corners = np.asarray(rest[k], dtype=np.float64)
+    normal = cross3(corners[1] - corners[0], corners[2] - corners[0])
+    return MaterialPoint(lam[k] @ corners, normal / np.linalg.norm(normal), k, float(dist[k]))
+
+
+def affine_material_point(point, normal, current: np.ndarray, rest: np.ndarray, weights: np.ndarray,
+                          current_corners: np.ndarray, rest_corners: np.ndarray, reach: float) -> MaterialPoint | None:
+    """The material point of the crossing ``point`` [m] (3,) (skin normal ``normal``) through the
+    affine map carrying the nodes' ``current`` positions (k, 3) [m] to their ``rest`` positions
+    (k, 3) [m] with ``weights`` (k,), fitted in the tangent plane at the crossing; put on the
+    nearest of the rest triangles ``rest_corners`` (m, 3, 3). None if no live triangle
+    (``current_corners`` (m, 3, 3)) lies within ``reach`` [m] of the crossing (over an opening),
+    or the nodes do not span the plane (then the triangle map is used)."""
+    point = np.asarray(point, dtype=np.float64)
+    if not len(current_corners) or closest_on_triangles(point, current_corners)[0].min() > reach:
+        return None
+    n = np.asarray(normal, dtype=np.float64)
+    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    rel = current - point
+    basis = np.column_stack([np.ones(len(rel)), rel @ e1, rel @ e2])
+    sw = np.sqrt(np.asarray(weights, dtype=np.float64))
+    solution, _, rank, _ = np.linalg.lstsq(basis * sw[:, None], rest * sw[:, None], rcond=1e-10)
+    if rank < 3:
+        return material_point(point, current_corners, rest_corners, reach)
+    dist, lam = closest_on_triangles(solution[0], rest_corners)
+    k = int(np.argmin(dist))
+    corners = rest_corners[k]
+    rest_normal = cross3(corners[1] - corners[0], corners[2] - corners[0])
+    return MaterialPoint(lam[k] @ corners, rest_normal / np.linalg.norm(rest_normal), k, float(dist[k]))

@@ -1,0 +1,57 @@
+"""The cut's tolerances, named, with their units, in one place.
+
+Lengths are given as fractions of the cut's station spacing s (about the mesh's spring length,
+``CutSettings.spacing``) unless they say otherwise; angles in degrees. Every decision of the
+three stages is taken in the rest (material) shape with these, so none of them depends on where
+the tool has pushed the skin.
+"""
+
+from __future__ import annotations
+
+MIN_ANGLE_DEG = 20.0
+"""Smallest angle a triangle the cut makes may have in the rest shape [deg] (checked in 3D)."""
+
+REFINE_ANGLE_DEG = 22.0
+"""The angle the refinement aims for in the region's flat chart [deg]: a little above
+``MIN_ANGLE_DEG``, so that lifting the chart onto a curved rest surface keeps every angle at
+least ``MIN_ANGLE_DEG``."""
+
+CLEARANCE = 0.3
+"""Least distance [x s] between a lip line and a tissue node that is kept beside it: nodes nearer
+the curve than lip offset + CLEARANCE x s are cleared with the swept band, so no triangle
+between a lip and a node beside it is thin (a 20 deg triangle on a base s is 0.18 s high)."""
+
+MIN_ADVANCE = 0.25
+"""Least advance of the blade along the rest curve [x s] that extends an incision (less waits
+for the next event: a re-mesh for nothing)."""
+
+LAST_STATION = 0.5
+"""Least distance [x s] from the newest lip station to the slit's tip."""
+
+ROUND_ANGLE_DEG = 75.0
+"""A corner of the re-meshed region sharper than this [deg] (the region's triangles at one of
+its border nodes) takes in that node's whole fan: the fill then has room for good triangles."""
+
+VOID_REACH = 0.35
+"""A crossing of the blade farther than this [x s] from every live triangle lies over an
+opening (an earlier wound): it is not carried into the rest shape, the incision waits."""
+
+REGION_MARGIN = 0.5
+"""Triangles within lip offset + clearance + REGION_MARGIN x s of the curve are re-meshed."""
+
+MAX_GROWTH = 4
+"""Times a region may grow (a fixed edge the refinement had to split, a sharp corner) before its
+fill is accepted as it is."""
+
+JUNCTION = 0.35
+"""A node on a border of the tissue (an earlier wound, its edge) within lip offset + JUNCTION x s
+of the curve, and the two nodes of a border edge within lip offset + JUNCTION / 2 x s, are
+swept with the band: there the slit joins that border. Farther border nodes stay (the slit
+passes beside the opening)."""
+
+ALREADY_CUT = 0.6
+"""Curve closer than lip offset + ALREADY_CUT x s to an opening (an earlier wound) is already
+cut: going over a wound again does no new damage."""
+
+MIN_EDGE = 0.05
+"""Shortest edge the refinement may make [x s]."""
