@@ -37,6 +37,7 @@ from ..mesh.checks import cuttable_problems
 from ..sim.control import Tool
 from ..sim.model import TissueModel
 from ..sim.strokes import inside_cylinder
+from .chart import RegionChart, barycentric
 from .contact import BladeContact, HitLists
 from .events import EventClock
 from .flips import flip_to_delaunay
@@ -45,7 +46,8 @@ from .incision import Incision
 from .islands import islands_from
 from .material_point import MaterialPoint, affine_material_point
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
-from .remesh import PieceCut, SlitDoesNotFit, clearance, cut_piece
+from .region import distance_to_segments
+from .remesh import PieceCut, SlitDoesNotFit, clearance, cut_piece, edge_clearance
 from .settings import CutSettings
 from .surface import Crossing
 from .tolerances import MIN_ADVANCE, VOID_REACH
@@ -203,6 +205,7 @@ class Cutter:
                        lip_offset=s.lip_offset or 0.25 * sweep_radius, tolerance=s.tolerance or 0.1 * self.spacing,
                        contact_point=crossing.point, contact_normal=crossing.normal)
         inc.sweep_radius = float(sweep_radius)
+        inc.starts_on_tissue = self._rest_point_on_tissue(start.rest)
         self._linked[len(self.incisions)] = set()
         self.incisions.append(inc)
         self.current = inc
@@ -318,17 +321,25 @@ class Cutter:
         cut (too short a piece, or a slit that does not fit: the next event tries again)."""
         editor = self.editor
         first = not inc.station_u and inc.tip_node < 0
-        u_from = float(inc.project(inc.cut_point[None])[0][0]) if inc.cut_point is not None else 0.0
+        unopened = inc.starts_on_tissue and inc.start_node < 0 and inc.last_pair(self.model.active) < 0
+        u_from = 0.0 if inc.cut_point is None or unopened else float(inc.project(inc.cut_point[None])[0][0])
         if upto - u_from < MIN_ADVANCE * self.spacing:
             return False
-        piece = inc.point_at(np.linspace(u_from, upto, 9))
+        u = np.linspace(u_from, upto, max(9, int(np.ceil((upto - u_from) / (0.1 * self.spacing))) + 1))
+        piece = inc.point_at(u)
         near = self.contact.nodes_near_at_rest(sim, piece[0], piece[-1],
-                                               clearance(inc) + 3.0 * self.spacing + 0.5 * (inc.length - u_from))
+                                               clearance(inc) + 3.0 * self.spacing + 0.5 * (upto - u_from))
+        on_tissue = self._on_triangles_at(piece, near, edge_clearance(inc), inc.slit_nodes)
+        if tool is not None and not on_tissue[-1]:
+            return False  # the tip would lie in an opening: wait till the blade is through it
+        if not on_tissue.any():
+            inc.cut_point = piece[-1].copy()  # all of it over an opening: nothing to cut
+            return False
         positions = NodePositions(self._positions_view(sim))
         editor.begin()
         t3 = time.perf_counter()
         try:
-            cut = cut_piece(editor, inc, piece, upto, near, positions, tool=tool, first=first)
+            cut = cut_piece(editor, inc, u, on_tissue, near, positions, tool=tool, first=first)
         except SlitDoesNotFit as why:
             self.totals["skipped_events"] += 1
             self.skipped[str(why)] = self.skipped.get(str(why), 0) + 1
@@ -349,6 +360,33 @@ class Cutter:
         for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t4 - t3, t5 - t4, t6 - t5)):
             self.latency_ms[name].append(1e3 * dt)
         return True
+
+    def _rest_point_on_tissue(self, point: np.ndarray) -> bool:
+        """True if the rest point ``point`` (3,) [m] lies on the tissue at rest (the nodes near
+        it found on the model: O(nodes), once per incision)."""
+        near = np.flatnonzero(self.model.active & (np.linalg.norm(self.model.points - point, axis=1)
+                                                   <= 2.0 * self.spacing))
+        return bool(self._on_triangles_at(point[None], near, 0.1 * self.spacing)[0])
+
+    def _on_triangles_at(self, points: np.ndarray, nodes: np.ndarray, edge: float, own=frozenset()) -> np.ndarray:
+        """Mask (k,) of the rest points (k, 3) [m] lying on the rest shape of a live triangle at
+        ``nodes`` (within a hundredth of a spacing) and farther than ``edge`` [m] from the
+        tissue's borders (but those of the slit of nodes ``own``: an incision's own): in the
+        tissue, not in an opening nor at its edge."""
+        tris = np.array(self.model.index.triangles_at(nodes), dtype=np.int64)
+        if not len(tris):
+            return np.zeros(len(points), dtype=bool)
+        corners = self.model.triangle_table.column("corners")[tris]
+        rest = self.model.points[corners]
+        chart = RegionChart.of_triangles(rest)  # a point over a triangle, off its plane (a curve's chord) is on it
+        lam = barycentric(chart.to2d(points), chart.to2d(rest))
+        inside = np.nan_to_num(lam.min(axis=2), nan=-1.0).max(axis=1) >= -0.01
+        border = [(int(c[k]), int(c[(k + 1) % 3])) for c in corners for k in range(3)]
+        border = np.array([e for e in border if len(self.model.index.triangles_with_edge(*e)) == 1
+                           and not (e[0] in own and e[1] in own)], dtype=np.int64).reshape(-1, 2)
+        points_of = self.model.points
+        away = distance_to_segments(points, points_of[border[:, 0]], points_of[border[:, 1]]) > edge
+        return inside & away
 
     def _wound_links(self, inc: Incision, piece: np.ndarray, cut: PieceCut) -> None:
         """The links of the tissue's springs ``piece`` crosses (the paper's links model)."""

@@ -139,6 +139,9 @@ class Incision:
         self.pending_links: list[tuple[float, float]] = []
         """Separated springs whose residual link waits for a lip pair near where they crossed:
         (arc length u [m], rest length [m])."""
+        self.starts_on_tissue = True
+        """False when the blade entered in an opening (an earlier wound): the slit then has no
+        start node, it opens into that wound (set by the Cutter)."""
         self.reached_border = False
         """True once the slit has run into an opening or the tissue's edge (it ends there open)."""
 

@@ -3,64 +3,47 @@
 Everything here is decided on the nodes' rest positions (``model.points``), so nothing the tool
 does to the current positions changes it:
 
-* the swept band: the nodes within the clearance ``c`` of the piece of rest curve the blade cut
-  in this event are deleted (``c`` is the sweep radius, at least the lip offset plus
-  ``CLEARANCE`` spacings, so no node kept beside a lip makes a thin triangle with it); on a
-  border of the tissue (an earlier wound, its edge) only the nodes within the junction reach
-  ``j`` (lip offset + ``JUNCTION`` spacings), and the two nodes of every border edge passing
-  within half of it: there the slit joins that border, and it never crosses a border edge it
-  keeps;
+* the swept band: the tissue nodes within the clearance ``c`` of the part of the piece of rest
+  curve the blade cut through tissue in this event are deleted (``c`` is the sweep radius, at
+  least the lip offset plus ``CLEARANCE`` spacings, so no node kept beside a lip makes a thin
+  triangle with it); nodes on a border of the tissue (an earlier wound, its edge) are left to
+  the slit's band, which takes those it reaches (``warp_cut.cut.remesh``);
 * the region: every triangle at a node within ``c`` + ``REGION_MARGIN`` spacings of the piece,
   made round (a corner of the region sharper than ``ROUND_ANGLE_DEG`` takes in the whole fan of
-  its node), and grown on request (``grow``);
+  its node), and grown on request (``grow``, ``sweep``);
 * its outline: the region's border edges, directed so the region lies on their left (the mesh's
-  winding), and the gaps that the deleted nodes leave in it where the outline runs along a border
-  of the mesh (an earlier wound, the tissue's edge, the incision's own tip).
+  winding).
 
 Shapes: node and triangle slots are int arrays; positions (k, 3) [m].
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from ..mesh.geometry import triangle_angles
 from ..sim.topology_index import TopologyIndex
-from .incision import closest_on_polyline
 from .tolerances import ROUND_ANGLE_DEG
 
-__all__ = ["Region", "Gap", "swept_nodes", "outline_gaps"]
+__all__ = ["Region", "tissue_segments", "distance_to_segments"]
 
 
-@dataclass
-class Gap:
-    """Deleted nodes in a row on the region's outline: the walk along the outline (region on the
-    left) goes ``before`` -> ``nodes`` -> ``after``, with ``before`` and ``after`` kept."""
-
-    before: int
-    after: int
-    nodes: list = field(default_factory=list)
-
-
-def swept_nodes(points: np.ndarray, candidates: np.ndarray, curve: np.ndarray, radius: float) -> np.ndarray:
-    """The ``candidates`` (node slots) whose rest position (``points`` (n, 3) [m]) lies within
-    ``radius`` [m] of the polyline ``curve`` (k, 3) [m]."""
-    if not len(candidates):
-        return candidates
-    poly = curve if len(curve) > 1 else np.repeat(curve, 2, axis=0)
-    dist = closest_on_polyline(points[candidates], poly)[3]
-    return candidates[dist <= radius]
+def distance_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Least distance [m] (m,) of points (m, 3) to the segments a-b (k, 3) (inf without any)."""
+    if not len(a):
+        return np.full(len(points), np.inf)
+    ab = b - a
+    t = np.clip(((points[:, None, :] - a[None]) * ab[None]).sum(axis=2) / np.maximum((ab * ab).sum(axis=1), 1e-300),
+                0.0, 1.0)
+    return np.linalg.norm(a[None] + t[..., None] * ab[None] - points[:, None, :], axis=2).min(axis=1)
 
 
-def _segment_distance(p: np.ndarray, q: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Least distance [m] (m,) between segments p-q (m, 3) and a polyline (k, 3), sampled at
-    nine points per segment (enough for segments about as long as the clearance)."""
-    t = np.linspace(0.0, 1.0, 9)
-    samples = p[:, None, :] + t[None, :, None] * (q - p)[:, None, :]
-    dist = closest_on_polyline(samples.reshape(-1, 3), poly)[3].reshape(len(p), -1)
-    return dist.min(axis=1)
+def tissue_segments(curve: np.ndarray, on_tissue: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The segments (a (k, 3), b (k, 3)) of the polyline ``curve`` (n, 3) with an end on the
+    tissue (``on_tissue`` (n,) bool): the part of the curve the blade cut through tissue (over an
+    opening it sweeps nothing)."""
+    keep = on_tissue[:-1] | on_tissue[1:]
+    return curve[:-1][keep], curve[1:][keep]
 
 
 class Region:
@@ -79,23 +62,21 @@ class Region:
         self.triangles = set(int(t) for t in triangles)
 
     @classmethod
-    def around(cls, model, curve: np.ndarray, near: np.ndarray, clearance: float, junction: float,
+    def around(cls, model, curve: np.ndarray, on_tissue: np.ndarray, near: np.ndarray, clearance: float,
                margin: float, protected=(), provisional=()) -> Region:
-        """The region of the piece of rest curve ``curve`` (k, 3) [m]: ``near`` are the live nodes
-        within ``clearance + margin`` (and some more) of it; nodes within ``clearance`` are
-        deleted, those on a border of the tissue only within ``junction``, with the two nodes
-        of each border edge passing within half of it (never the ``protected`` ones: the
-        incision's own lips and start); the ``provisional`` nodes (the incision's old tip and
-        what is beyond its last lip pair) go too."""
+        """The region of the piece of rest curve ``curve`` (k, 3) [m], whose points
+        ``on_tissue`` (k,) bool lie on the tissue (not in an opening): ``near`` are the live
+        nodes within ``clearance + margin`` (and some more) of it; the tissue nodes within
+        ``clearance`` of its part on the tissue are deleted (not those on a border of the tissue:
+        where the band reaches them, taking it out of the tissue takes them; never the
+        ``protected`` ones: the incision's own lips and start); the ``provisional`` nodes (the
+        incision's old tip and what is beyond its last lip pair) go too."""
         points = model.points
-        poly = curve if len(curve) > 1 else np.repeat(curve, 2, axis=0)
-        dist = closest_on_polyline(points[near], poly)[3] if len(near) else np.zeros(0)
+        a, b = tissue_segments(curve, np.asarray(on_tissue, dtype=bool))
+        dist = distance_to_segments(points[near], a, b) if len(near) else np.zeros(0)
         keep = set(int(v) for v in protected)
-        on_border = cls._border_nodes(model, near)
-        reach = np.where(on_border, min(junction, clearance), clearance)
-        deleted = {int(v) for v in near[dist <= reach]} - keep
-        deleted |= cls._border_edges_near(model, near, poly, 0.5 * junction) - keep
-        deleted |= {int(v) for v in provisional}
+        swept = near[(dist <= clearance) & ~cls._border_nodes(model, near)]
+        deleted = ({int(v) for v in swept} - keep) | {int(v) for v in provisional}
         within = near[dist <= clearance + margin]
         region = cls(model, deleted, model.index.triangles_at(set(within.tolist()) | deleted))
         region.round()
@@ -113,25 +94,6 @@ class Region:
                     out[k] = True
                     break
         return out
-
-    @staticmethod
-    def _border_edges_near(model, near: np.ndarray, poly: np.ndarray, clearance: float) -> set[int]:
-        """Both nodes of every border edge (on one live triangle) at ``near`` that passes within
-        ``clearance`` [m] of the polyline ``poly``."""
-        index, corners = model.index, model.triangle_table.column("corners")
-        edges = set()
-        for v in near:
-            for t in index.node_triangles[int(v)]:
-                c = corners[t]
-                for k in range(3):
-                    a, b = int(c[k]), int(c[(k + 1) % 3])
-                    if len(index.triangles_with_edge(a, b)) == 1:
-                        edges.add((min(a, b), max(a, b)))
-        if not edges:
-            return set()
-        pairs = np.array(sorted(edges), dtype=np.int64)
-        close = _segment_distance(model.points[pairs[:, 0]], model.points[pairs[:, 1]], poly) <= clearance
-        return {int(v) for v in pairs[close].ravel()}
 
     # ------------------------------------------------------------------ shape
     def outline(self) -> list[tuple[int, int]]:
@@ -188,41 +150,17 @@ class Region:
                     return True
         return False
 
+    def sweep(self, nodes) -> None:
+        """Take in the fans of ``nodes``; those on a border of the tissue are deleted too (a sharp
+        corner of tissue between the slit and a border goes with the band)."""
+        for v in nodes:
+            v = int(v)
+            if self._touches_border(v):
+                self.deleted.add(v)
+            self.triangles |= self.index.node_triangles[v]
+
     def grow(self, edges) -> None:
         """Take in the triangles across the outline edges ``edges`` (node pairs) that the region
         does not hold (the fill had to split them: they are shared with the mesh outside)."""
         for a, b in edges:
             self.triangles |= self.index.triangles_with_edge(int(a), int(b))
-
-
-def outline_gaps(outline: list[tuple[int, int]], deleted: set[int]) -> tuple[list[tuple[int, int]], list[Gap]]:
-    """(the outline edges between kept nodes, the gaps deleted nodes leave in it). A gap is
-    followed along the outline from the kept node before it to the kept node after it; an
-    outline loop whose nodes are all deleted leaves no gap (it is swallowed)."""
-    kept = [(a, b) for a, b in outline if a not in deleted and b not in deleted]
-    following: dict[int, list[int]] = {}
-    for a, b in outline:
-        following.setdefault(a, []).append(b)
-    gaps = []
-    for a, b in outline:
-        if a in deleted or b not in deleted:
-            continue
-        nodes, v, steps = [], b, 0
-        while v in deleted and steps <= len(outline):
-            nodes.append(v)
-            nexts = following.get(v, [])
-            if not nexts:
-                break
-            v = nexts[0] if len(nexts) == 1 else _first_not(nexts, nodes)
-            steps += 1
-        if v not in deleted:
-            gaps.append(Gap(a, v, nodes))
-    return kept, gaps
-
-
-def _first_not(candidates: list[int], seen: list[int]) -> int:
-    """The first of ``candidates`` not in ``seen`` (else the first)."""
-    for c in candidates:
-        if c not in seen:
-            return c
-    return candidates[0]

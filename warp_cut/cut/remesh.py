@@ -1,21 +1,26 @@
 """Stage 3 in the rest shape: re-mesh the region round the swept band with the slit in it.
 
 One event of an incision (``cut_piece``) takes the piece of rest curve the blade cut since the
-last event and, all in the rest shape:
+last event and, all in a flat chart of the rest surface:
 
-1. deletes what the band swept and picks the region of triangles round it (``region.Region``);
-2. finds where the slit meets the region's outline (``region.outline_gaps``) and walks it
-   (``band.walk_the_slit``): the lip nodes of the new stations, the tip, the start;
-3. fills the region minus the slit in a flat chart of the rest surface with triangles of at
-   least ``REFINE_ANGLE_DEG`` (``fill.fill_region``); a fill that had to split an edge the
-   region shares with the tissue outside it grows the region across that edge and fills again;
-4. writes the new nodes, their rest positions on the rest surface and their current positions
-   in the deformed tissue (both through the region's triangles: nothing jumps; a node the tool's
-   cylinder holds is put on its surface, as the tool would push it) and the new triangles
-   through the ``TopologyEditor``, and gives the nodes and springs their classes.
+1. picks the region of triangles round the band and the tissue nodes the band sweeps
+   (``region.Region``);
+2. lays out the slit's band (``slit_band.plan_band``: its lips at the new stations, its tip,
+   its start, or its ends in openings) and takes it out of the region's tissue (a polygon
+   difference, GEOS through Shapely): the tissue left is exactly the region's triangles less
+   the band, whatever earlier wounds or borders the band runs into, crosses or starts in;
+3. fills that tissue with triangles of at least ``REFINE_ANGLE_DEG`` (``fill.fill_region``,
+   keeping the region's outline, the lips and the nodes inside); a fill that had to split an
+   edge the region shares with the tissue outside grows the region across it, and a corner of
+   tissue sharper than the fill can mend (a slit meeting a border at a shallow angle) goes with
+   the band; then fills again;
+4. writes the new nodes, their rest positions on the rest surface and their current positions in
+   the deformed tissue (both through the region's triangles: nothing jumps; a node the tool's
+   cylinder holds is put on its surface, as the tool would push it) and the new triangles through
+   the ``TopologyEditor``, and gives the nodes and springs their classes.
 
-It returns a ``PieceCut`` record, or raises ``SlitDoesNotFit`` (saying why) before it has
-edited anything: the event is left for the next one.
+It returns a ``PieceCut`` record, or raises ``SlitDoesNotFit`` (saying why) before it has edited
+anything: the event is left for the next one.
 """
 
 from __future__ import annotations
@@ -23,20 +28,21 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import shapely
 
 from ..errors import InputError
 from ..sim.collision import pushed_out
 from ..sim.control import Tool
-from .band import Walk, walk_the_slit
 from .chart import PiecewiseLinearMap, RegionChart
 from .classes import NodeClass, SpringClass
 from .fill import Fill, fill_region
 from .incision import Incision
-from .region import Region, outline_gaps
-from .tolerances import CLEARANCE, JUNCTION, LAST_STATION, MAX_GROWTH, MIN_EDGE, REFINE_ANGLE_DEG, REGION_MARGIN
+from .region import Region
+from .slit_band import START, TIP, BandPoint, SlitBand, plan_band
+from .tolerances import CLEARANCE, LAST_STATION, MAX_GROWTH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG, REGION_MARGIN
 from .topology import NodePositions, TopologyEditor
 
-__all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece", "clearance"]
+__all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece", "clearance", "edge_clearance"]
 
 
 class SlitDoesNotFit(Exception):
@@ -48,13 +54,13 @@ class PieceCut:
     """What one event's re-mesh did.
 
     Attributes:
-        deleted: Nodes the swept band deleted.
-        lips: New lip nodes (with the tip and the start).
+        deleted: Nodes the event deleted (swept by the band, or left in it).
+        lips: New nodes on the slit (lips, tip, start, and where a lip line meets a border).
         inserted: Nodes the refinement inserted.
         stations: (u [m], left node, right node) of each new station (-1: no lip there).
         tip: The new tip node (-1: the slit ends in an opening).
         start: The start node made here (-1: none made).
-        growth: How many times the region grew before the fill was accepted.
+        growth: How many times the region grew (or a sharp corner went) before the fill.
         unrefined: Triangles left under the target angle (sharp corners of the outline).
         met_border: The slit ran into an opening or the tissue's edge in this event.
     """
@@ -71,49 +77,120 @@ class PieceCut:
 
 
 def clearance(inc: Incision) -> float:
-    """How far from the curve [m] the swept band deletes nodes: the sweep radius, at least the
-    lip offset plus ``CLEARANCE`` spacings."""
+    """How far from the curve [m] the swept band deletes tissue nodes: the sweep radius, at least
+    the lip offset plus ``CLEARANCE`` spacings."""
     return max(inc.sweep_radius, inc.lip_offset + CLEARANCE * inc.spacing)
+
+
+def edge_clearance(inc: Incision) -> float:
+    """How far from a border of the tissue [m] a point of the curve must lie to count as in the
+    tissue: the lip offset plus ``CLEARANCE`` spacings (nearer, the band goes on into the
+    opening: no thinner strip of tissue is left between them)."""
+    return inc.lip_offset + CLEARANCE * inc.spacing
 
 
 @dataclass
 class _Layout:
-    """A region's fill: the vertices (node ids >= 0, new points < 0), their chart points, the
-    fill, and which outline edges it may not split."""
+    """A region's fill: ``ids`` of its vertices (node ids >= 0, new points < 0: ``points[-1-k]``),
+    the fill, the chart, which outline edges it may not split, and the outline's turns."""
 
     ids: list
+    points: list
     fill: Fill
-    walk: Walk
     chart: RegionChart
     fixed: set
+    turns: dict
+    """Outline vertex id -> (its row, the row before it, the row after it) along the tissue's
+    new outline, the tissue on the left (rows of ``fill.points``)."""
+    cut_across: set
+    """Fixed outline edges the band cuts across (the region must grow across them)."""
+    stations: list
+    """Arc lengths [m] of the band's new stations (``BandPoint.station`` indexes them)."""
 
 
-def cut_piece(editor: TopologyEditor, inc: Incision, piece: np.ndarray, upto: float, near: np.ndarray,
-              positions: NodePositions, *, tool: Tool | None, first: bool) -> PieceCut | None:
-    """Cut the piece ``piece`` (k, 3) [m] of ``inc``'s rest curve (from the last cut to the arc
-    length ``upto`` [m], where the slit's new tip goes) into the model (see the module
-    docstring). ``near``: live nodes within clearance + 2 spacings of it, at least;
-    ``positions``: the current node positions; ``tool``: the tool now, whose cylinder new nodes
-    are kept out of; ``first``: the incision's first event (its start node may be made). Part
-    of an edit begun on ``editor``."""
+@dataclass(frozen=True)
+class _NewPoint:
+    """A node the layout makes: a band point, or where a lip line meets a border (``band`` None)."""
+
+    band: BandPoint | None
+    chart: np.ndarray
+
+
+def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, near: np.ndarray,
+              positions: NodePositions, *, tool: Tool | None, first: bool) -> PieceCut:
+    """Cut the piece of ``inc``'s rest curve sampled at arc lengths ``u`` (k,) [m] (from the last
+    cut to the slit's new tip, the last sample), ``on_tissue`` (k,) bool: which samples lie in
+    the tissue (the others over an opening, where the blade sweeps nothing). ``near``: live nodes
+    within clearance + 2 spacings of the piece, at least; ``positions``: the current node
+    positions; ``tool``: the tool now, whose cylinder new nodes are kept out of; ``first``: the
+    incision's first event. Part of an edit begun on ``editor`` (see the module docstring).
+
+    Raises:
+        SlitDoesNotFit: The band leaves no tissue to fill, or its region cannot be filled.
+    """
     model = editor.model
     s = inc.spacing
     provisional = inc.provisional_nodes(model.active, model.points)  # the old tip goes: the slit runs on
-    protected = inc.lip_node_set() - provisional
-    region = Region.around(model, piece, near, clearance(inc), inc.lip_offset + JUNCTION * s,
-                           REGION_MARGIN * s, protected, provisional)
-    stations = inc.next_stations(upto - LAST_STATION * s)
-    start = inc.start_node if inc.start_node >= 0 and model.active[inc.start_node] else None
-    start_possible = first or (start is not None and start in region.nodes())
-    growth = 0
-    while True:
-        layout = _lay_out(model, inc, region, stations, start_possible, start, upto)
-        refused = {_edge_of(layout.ids, e) for e in layout.fill.split_edges} & layout.fixed
-        if not refused or growth == MAX_GROWTH:
+    protected = (inc.lip_node_set() | inc.slit_nodes) - provisional
+    piece = inc.point_at(u)
+    region = Region.around(model, piece, on_tissue, near, clearance(inc), REGION_MARGIN * s, protected, provisional)
+    band = _band(model, inc, u, on_tissue, region, first)
+    _add_old_tip(model, inc, region, band)
+    corners = model.triangle_table.column("corners")[sorted(region.triangles)]
+    chart = RegionChart.of_triangles(model.points[corners])
+    wedges: list = []
+    for growth in range(MAX_GROWTH + 1):
+        layout = _lay_out(model, inc, region, band, chart, wedges)
+        refused = ({_edge_of(layout.ids, e) for e in layout.fill.split_edges} & layout.fixed) | layout.cut_across
+        sharp = _sharp_corners(layout, protected) if layout.fill.unrefined else []
+        if not (refused or sharp) or growth == MAX_GROWTH:
             break
         region.grow(refused)
-        growth += 1
+        for v, wedge in sharp:
+            if wedge is None:
+                region.sweep([v])
+            else:
+                wedges.append(wedge)
     return _apply(editor, inc, region, layout, positions, tool, growth)
+
+
+def _band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, region: Region, first: bool) -> SlitBand:
+    """The event's band: onto the newest live lip pair when the piece starts at it, round the
+    start in the incision's first event (or while it has no pair yet)."""
+    active = model.active
+    k = inc.last_pair(active)
+    pair = (inc.left[k], inc.right[k]) if k >= 0 else None
+    start = inc.start_node if inc.start_node >= 0 and active[inc.start_node] else None
+    start_possible = pair is None and ((first and inc.starts_on_tissue) or start is not None)
+    stations = inc.next_stations(float(u[-1]) - LAST_STATION * inc.spacing)
+    borders = [(a, b) for a, b in region.outline() if region.on_mesh_border(a, b)
+               and not (a in inc.slit_nodes and b in inc.slit_nodes)]
+    return plan_band(inc, u, on_tissue, stations=stations, pair=pair,
+                     pair_u=inc.station_u[k] if k >= 0 else 0.0, start=start, start_possible=start_possible,
+                     extension=edge_clearance(inc) + inc.lip_offset, margin=LAST_STATION * inc.spacing,
+                     points=model.points, borders=borders)
+
+
+def _add_old_tip(model, inc: Incision, region: Region, band: SlitBand) -> None:
+    """Add to the band the end of the slit cut before, past its newest lip pair: the slit's
+    outline from the left lip of that pair round the old tip to the right one (a polygon of
+    nodes), so that band and old slit join without a sliver of tissue between them."""
+    k = inc.last_pair(model.active)
+    if k < 0:
+        return
+    left, right = inc.left[k], inc.right[k]
+    following = {}
+    for a, b in region.outline():
+        following.setdefault(a, []).append(b)
+    chain, v = [left], left
+    while v != right and len(chain) <= len(following) + 1:
+        nexts = [w for w in following.get(v, []) if w in inc.slit_nodes or w == right]
+        if not nexts:
+            return
+        v = nexts[0]
+        chain.append(v)
+    if v == right and len(chain) >= 3:
+        band.runs.append([BandPoint(model.points[w], 0, -4, 0.0, w) for w in chain])
 
 
 def _edge_of(ids: list, edge: tuple[int, int]) -> tuple[int, int]:
@@ -122,46 +199,135 @@ def _edge_of(ids: list, edge: tuple[int, int]) -> tuple[int, int]:
     return (min(a, b), max(a, b))
 
 
-def _lay_out(model, inc: Incision, region: Region, stations: list[float], start_possible: bool,
-             start: int | None, upto: float) -> _Layout:
-    """The region's outline and slit in a chart, filled.
+def _lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionChart, wedges: list) -> _Layout:
+    """The region's tissue less the band (and the sharp ``wedges`` (3, 2) chart triangles cut off
+    before), in ``chart``, filled.
 
     Raises:
-        SlitDoesNotFit: The gaps do not make a walk round the slit, the walk and the outline do
-            not close, or the fill found no area.
+        SlitDoesNotFit: No tissue is left, or the fill found no area.
     """
-    outline = region.outline()
-    kept, gaps = outline_gaps(outline, region.deleted)
-    walk = walk_the_slit(inc, gaps, model.points, stations=stations, margin=LAST_STATION * inc.spacing,
-                         start_possible=start_possible, start=start, length=upto)
-    if walk is None:
-        raise SlitDoesNotFit(f"the slit does not meet the outline's {len(gaps)} gaps in turn")
-    if not _balanced(kept + walk.edges):
-        raise SlitDoesNotFit("the slit and the outline do not make closed loops")
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
-    chart = RegionChart.of_triangles(model.points[corners])
-    border = {v for e in kept for v in e} | {v for e in walk.edges for v in e if v >= 0}
-    inside = sorted(region.nodes() - region.deleted - border)
-    ids = sorted(border) + inside + [-1 - k for k in range(len(walk.points))]
+    tissue = shapely.union_all(shapely.polygons(chart.to2d(model.points[corners])))
+    rings = [chart.to2d(np.array([p.rest for p in run])) for run in band.runs]
+    cut = shapely.union_all([shapely.make_valid(shapely.Polygon(r)) for r in rings if len(r) >= 3]
+                            + [shapely.Polygon(w) for w in wedges])
+    grid = 1e-6 * inc.spacing  # slivers of rounding where the band runs along a border collapse on it
+    left = shapely.orient_polygons(shapely.set_precision(tissue.difference(cut), grid), exterior_cw=False)
+    pieces = [g for g in getattr(left, "geoms", [left]) if isinstance(g, shapely.Polygon)
+              and g.area > (0.01 * inc.spacing) ** 2]
+    if not pieces:
+        raise SlitDoesNotFit("the band leaves no tissue in its region")
+    table = _VertexTable(model, chart, region, band, grid)
+    loops, points = _loops(pieces, table, MERGE * inc.spacing)
+    outline = {v for loop in loops for v in loop}
+    rim = shapely.union_all([p.boundary for p in pieces])
+    inside = [v for v in sorted(region.nodes() - region.deleted - outline)
+              if any(p.contains(shapely.Point(chart.to2d(model.points[v]))) for p in pieces)
+              and rim.distance(shapely.Point(chart.to2d(model.points[v]))) > MERGE * inc.spacing]
+    ids = sorted(v for v in outline if v >= 0) + inside + sorted((v for v in outline if v < 0), reverse=True)
     where = {v: k for k, v in enumerate(ids)}
-    rest = np.concatenate([model.points[[v for v in ids if v >= 0]],
-                           np.array([p.rest for p in walk.points]).reshape(-1, 3)])
-    edges = [(where[a], where[b]) for a, b in kept + walk.edges]
+    chart_points = np.array([chart.to2d(model.points[v]) if v >= 0 else points[-1 - v].chart for v in ids])
+    edges = [(where[a], where[b]) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1]) if a != b]
     try:
-        fill = fill_region(chart.to2d(rest), edges, min_angle_deg=REFINE_ANGLE_DEG, min_edge=MIN_EDGE * inc.spacing)
+        fill = fill_region(chart_points, edges, min_angle_deg=REFINE_ANGLE_DEG, min_edge=MIN_EDGE * inc.spacing)
     except InputError as err:
         raise SlitDoesNotFit(str(err)) from err
-    fixed = {(min(a, b), max(a, b)) for a, b in kept if not region.on_mesh_border(a, b)}
-    return _Layout(ids, fill, walk, chart, fixed)
+    fixed = {(min(a, b), max(a, b)) for a, b in region.outline() if not region.on_mesh_border(a, b)}
+    kept = {(min(a, b), max(a, b)) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1])}
+    cut_across = {e for e in fixed if e not in kept and not {*e} & region.deleted}
+    turns = {b: (where[b], where[a], where[c]) for loop in loops
+             for a, b, c in zip(loop[-1:] + loop[:-1], loop, loop[1:] + loop[:1])}
+    return _Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations)
 
 
-def _balanced(edges: list[tuple[int, int]]) -> bool:
-    """True if every node of the directed edges has as many edges in as out (closed loops)."""
-    balance: dict[int, int] = {}
-    for a, b in edges:
-        balance[a] = balance.get(a, 0) + 1
-        balance[b] = balance.get(b, 0) - 1
-    return bool(edges) and not any(balance.values())
+class _VertexTable:
+    """What lies at a chart point: a node id (the region's nodes, the band's existing nodes) or a
+    BandPoint (a new point of the band), found within ``tolerance`` [m] (GEOS returns the input
+    vertices it keeps, but only to rounding)."""
+
+    def __init__(self, model, chart: RegionChart, region: Region, band: SlitBand, tolerance: float):
+        nodes = sorted(region.nodes())
+        self.items: list = list(nodes)
+        xy = [chart.to2d(model.points[nodes])] if nodes else []
+        for run in band.runs:
+            for p in run:
+                self.items.append(p.node if p.node >= 0 else p)
+                xy.append(chart.to2d(p.rest)[None])
+        self.xy = np.concatenate(xy) if xy else np.zeros((0, 2))
+        self.tolerance = tolerance
+
+    def get(self, point):
+        """The item at ``point`` (2,), or None."""
+        if not len(self.xy):
+            return None
+        d = np.linalg.norm(self.xy - point, axis=1)
+        k = int(np.argmin(d))
+        return self.items[k] if d[k] <= self.tolerance else None
+
+    def nodes_xy(self) -> np.ndarray:
+        """Chart points (k, 2) of the node items."""
+        mask = np.array([isinstance(v, (int, np.integer)) for v in self.items], dtype=bool)
+        return self.xy[mask]
+
+
+def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[int]], list[_NewPoint]]:
+    """The outline loops of the tissue left (the tissue on their left) as vertex ids, and the new
+    points: band points on the new outline, and points where a lip line meets a border. A new
+    point nearer than ``merge`` [m] to its neighbour on the loop that is a node is left out (the
+    loop goes straight on to the node: no tiny edge)."""
+    points: list[_NewPoint] = []
+    made: dict = {}
+    loops = []
+    for poly in pieces:
+        for ring in [poly.exterior, *poly.interiors]:
+            coords = np.asarray(ring.coords)[:-1]
+            ids = []
+            for xy in coords:
+                hit = table.get(xy)
+                if isinstance(hit, (int, np.integer)):
+                    ids.append(int(hit))
+                    continue
+                key = tuple(xy)
+                if key not in made:
+                    points.append(_NewPoint(hit if isinstance(hit, BandPoint) else None, xy))
+                    made[key] = -len(points)
+                ids.append(made[key])
+            loops.append(_merge_near(ids, coords, merge))
+    return [loop for loop in loops if len(loop) >= 3], points
+
+
+def _merge_near(ids: list[int], coords: np.ndarray, merge: float) -> list[int]:
+    """``ids`` without the new points (< 0) that lie within ``merge`` [m] of a neighbouring node
+    (>= 0) on the loop."""
+    n = len(ids)
+    keep = []
+    for k in range(n):
+        v = ids[k]
+        if v < 0:
+            near = [j for j in ((k - 1) % n, (k + 1) % n) if ids[j] >= 0
+                    and np.linalg.norm(coords[j] - coords[k]) < merge]
+            if near:
+                continue
+        keep.append(v)
+    return keep
+
+
+def _sharp_corners(layout: _Layout, protected: set[int]) -> list[tuple[int, np.ndarray | None]]:
+    """Corners of the tissue's new outline under ``REFINE_ANGLE_DEG`` (the fill cannot mend them):
+    (vertex id, None) at a node of the region's own outline (the region takes its fan in), else
+    (vertex id, the corner's triangle (3, 2) in the chart: it goes with the band)."""
+    chart = layout.fill.points
+    out = []
+    for v, (row, before, after) in layout.turns.items():
+        if v in protected:
+            continue
+        a, b = chart[after] - chart[row], chart[before] - chart[row]
+        angle = np.degrees(np.arctan2(a[0] * b[1] - a[1] * b[0], a @ b)) % 360.0  # after -> before, CCW
+        if angle >= REFINE_ANGLE_DEG:
+            continue
+        wedge = np.array([chart[before], chart[row], chart[after]])
+        out.append((v, None if v >= 0 and layout.ids[before] >= 0 and layout.ids[after] >= 0 else wedge))
+    return out
 
 
 def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: _Layout, positions: NodePositions,
@@ -169,7 +335,7 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: _Layou
     """Write the fill into the model through ``editor``; the new nodes' positions go into
     ``positions``."""
     model = editor.model
-    fill, walk, ids = layout.fill, layout.walk, layout.ids
+    fill, ids = layout.fill, layout.ids
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
     lift = PiecewiseLinearMap(layout.chart.to2d(model.points[corners]), model.points[corners],
                               positions[corners.reshape(-1)].reshape(-1, 3, 3))
@@ -177,7 +343,9 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: _Layou
     rest_new, current_new = lift(fill.points[new_rows])
     if tool is not None:
         current_new = pushed_out(current_new, tool)
-    editor.delete_nodes(sorted(region.deleted))
+    kept = {v for v in ids if v >= 0}
+    gone = sorted((region.nodes() | region.deleted) - kept)
+    editor.delete_nodes(gone)
     editor.delete_triangles(sorted(region.triangles))
     made = editor.add_nodes(rest_new) if len(new_rows) else np.zeros(0, np.int64)
     node_of = list(ids) + [0] * (len(fill.points) - len(ids))
@@ -186,43 +354,69 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: _Layou
         positions[int(node)] = x
     for tri in fill.triangles:
         editor.add_triangle([node_of[k] for k in tri], model.points)
-    cut = _record(inc, walk, ids, node_of, fill, region)
+    cut = _record(inc, layout, node_of, gone)
     cut.growth, cut.unrefined = growth, fill.unrefined
-    on_slit = [node_of[k] for k in _inserted_on_slit(fill, ids, walk, inc.spacing)]
+    on_slit = [node_of[k] for k in _inserted_on_slit(layout, inc.slit_nodes)]
     inc.slit_nodes.update(on_slit)
-    _classify(editor, cut, on_slit)
+    cut.lips = sorted(set(cut.lips) | set(on_slit))
+    _classify(editor, cut)
     return cut
 
 
-def _record(inc: Incision, walk: Walk, ids: list, node_of: list, fill: Fill, region: Region) -> PieceCut:
+def _inserted_on_slit(layout: _Layout, slit_nodes: set[int]) -> list[int]:
+    """Rows of the points the refinement inserted on the slit's edges (edges of the new outline
+    with an end among the new points or both ends on the slit)."""
+    fill, ids = layout.fill, layout.ids
+    extra = fill.points[len(ids):]
+    edges = [(row, after) for v, (row, _, after) in layout.turns.items()
+             if v < 0 or ids[after] < 0 or (v in slit_nodes and ids[after] in slit_nodes)]
+    if not len(extra) or not edges:
+        return []
+    seg = np.array(edges)
+    a, b = fill.points[seg[:, 0]], fill.points[seg[:, 1]]
+    ab = b - a
+    t = np.clip(((extra[:, None] - a[None]) * ab[None]).sum(axis=2) / np.maximum((ab * ab).sum(axis=1), 1e-300),
+                0.0, 1.0)
+    dist = np.linalg.norm(a[None] + t[..., None] * ab[None] - extra[:, None], axis=2).min(axis=1)
+    scale = max(float(np.ptp(fill.points, axis=0).max()), 1e-12)
+    return [len(ids) + int(k) for k in np.flatnonzero(dist < 1e-9 * scale)]
+
+
+def _record(inc: Incision, layout: _Layout, node_of: list, gone: list) -> PieceCut:
     """The PieceCut of a written fill, and the incision's new stations, tip and start."""
-    cut = PieceCut(deleted=sorted(region.deleted))
-    point_node = {k: node_of[ids.index(-1 - k)] for k in range(len(walk.points))}
-    lips = {(p.station, p.side): point_node[k] for k, p in enumerate(walk.points)}
-    for k, u in enumerate(walk.stations):
+    cut = PieceCut(deleted=gone)
+    made = {v: node_of[k] for k, v in enumerate(layout.ids) if v < 0}
+    lips, on_slit = {}, []
+    for v, node in made.items():
+        band = layout.points[-1 - v].band
+        if band is None:
+            on_slit.append(node)
+            cut.met_border = True
+        else:
+            lips[(band.station, band.side)] = node
+    for k, u in enumerate(layout.stations):
         left, right = lips.get((k, 1), -1), lips.get((k, -1), -1)
         if left >= 0 or right >= 0:
             inc.add_station(u, left, right)
             cut.stations.append((u, left, right))
-    cut.tip = lips.get((-2, 0), -1)
-    cut.start = lips.get((-1, 0), -1)
+    cut.tip = lips.get((TIP, 0), -1)
+    cut.start = lips.get((START, 0), -1)
     inc.tip_node = cut.tip
     if cut.start >= 0:
         inc.start_node = cut.start
-    cut.lips = sorted(point_node.values())
+    cut.lips = sorted(set(made.values()))
     inc.slit_nodes.update(cut.lips)
-    cut.inserted = [int(node_of[k]) for k in range(len(ids), len(fill.points))]
-    cut.met_border = cut.tip < 0
+    cut.inserted = [int(node_of[k]) for k in range(len(layout.ids), len(layout.fill.points))]
+    cut.met_border |= cut.tip < 0
     return cut
 
 
-def _classify(editor: TopologyEditor, cut: PieceCut, on_slit: list[int]) -> None:
-    """Lip, tip and start nodes are lips, and so are ``on_slit`` (points the refinement put on
-    the slit); the nodes joined to a lip are blue (yellow where joined to the tip or start);
-    springs along the slit are lip springs, those joining a lip to another node red, the others
-    the fill made green."""
+def _classify(editor: TopologyEditor, cut: PieceCut) -> None:
+    """The slit's new nodes are lips; the nodes joined to a lip are blue (yellow where joined to
+    the tip or start); springs along the slit are lip springs, those joining a lip to another
+    node red, the others the fill made green."""
     pairs = editor.model.spring_table.column("pairs")
-    lips = set(cut.lips) | set(on_slit)
+    lips = set(cut.lips)
     editor.set_node_class(lips, NodeClass.LIP)
     ends = {cut.tip, cut.start} - {-1}
     yellow, blue = set(), set()
@@ -238,18 +432,3 @@ def _classify(editor: TopologyEditor, cut: PieceCut, on_slit: list[int]) -> None
             editor.set_spring_class(slot, SpringClass.GREEN)
     editor.set_node_class(blue - lips, NodeClass.BLUE)
     editor.set_node_class(yellow - lips, NodeClass.YELLOW)
-
-
-def _inserted_on_slit(fill: Fill, ids: list, walk: Walk, spacing: float) -> list[int]:
-    """Rows of the points the refinement inserted on the slit's edges (it split a lip edge)."""
-    extra = fill.points[len(ids):]
-    if not len(extra) or not walk.edges:
-        return []
-    row = {v: k for k, v in enumerate(ids)}
-    seg = np.array([(row[a], row[b]) for a, b in walk.edges])
-    a, b = fill.points[seg[:, 0]], fill.points[seg[:, 1]]
-    ab = b - a
-    t = np.clip(((extra[:, None] - a[None]) * ab[None]).sum(axis=2) / np.maximum((ab * ab).sum(axis=1), 1e-300),
-                0.0, 1.0)
-    dist = np.linalg.norm(a[None] + t[..., None] * ab[None] - extra[:, None], axis=2).min(axis=1)
-    return [len(ids) + int(k) for k in np.flatnonzero(dist < 1e-9 * spacing)]

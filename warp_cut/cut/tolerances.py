@@ -43,15 +43,18 @@ MAX_GROWTH = 4
 """Times a region may grow (a fixed edge the refinement had to split, a sharp corner) before its
 fill is accepted as it is."""
 
-JUNCTION = 0.35
-"""A node on a border of the tissue (an earlier wound, its edge) within lip offset + JUNCTION x s
-of the curve, and the two nodes of a border edge within lip offset + JUNCTION / 2 x s, are
-swept with the band: there the slit joins that border. Farther border nodes stay (the slit
-passes beside the opening)."""
 
 ALREADY_CUT = 0.6
 """Curve closer than lip offset + ALREADY_CUT x s to an opening (an earlier wound) is already
 cut: going over a wound again does no new damage."""
+
+SNAP = 0.3
+"""A lip line meeting a border (an earlier wound, the tissue's edge) within this [x s] of a border
+node meets it at that node (the paper's node matching: no tiny triangle beside it)."""
+
+MERGE = 0.1
+"""A new point of the slit's outline (a lip, where a lip line meets a border) within this [x s]
+of a node next to it on the outline is left out: the outline goes straight on to the node."""
 
 MIN_EDGE = 0.05
 """Shortest edge the refinement may make [x s]."""

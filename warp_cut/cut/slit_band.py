@@ -1,0 +1,236 @@
+"""The slit one event opens, as polygons of the rest surface: the band between the two lips.
+
+The piece of rest curve an event cut runs over the tissue and, where it crosses an earlier wound
+or runs off the tissue's edge, over openings. Its samples that lie in the tissue (inside a live
+triangle, and a clearance ``edge`` away from every border) make runs; each run is the band of
+the slit there: up its left lip line (+``lip_offset`` across the curve, one lip at each station),
+round its front end, back down its right lip line, round its back end. A run's end is
+
+* the slit's tip (the run reaches the cut's end in the tissue): a point on the curve;
+* the incision's start (its first event, the blade having entered the tissue): a point on the
+  curve, the start node;
+* the incision's newest lip pair (an event continuing the slit): those two nodes, exactly, so
+  the band closes onto the slit cut before;
+* an opening (the run stops short of a border): the band's two lip lines go on until each meets
+  that border, and the band's end there runs along the border between the two meeting points
+  (through the border's nodes between them): band and opening join without a sliver of tissue.
+  (Where a lip line meets no border within reach, the band just goes on past the run's end by
+  the edge clearance and the lip offset, into the opening.)
+
+The band's vertices are ``BandPoint``s: existing nodes (the pair), or new points the event makes
+if they end up on the tissue's new border (lips, tip, start), or extension points in an opening
+(never made). Stage 3 subtracts the band from the region (``warp_cut.cut.remesh``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .incision import Incision
+from .tolerances import SNAP
+
+__all__ = ["BandPoint", "SlitBand", "plan_band", "EXTENSION", "TIP", "START", "JUNCTION"]
+
+TIP, START, EXTENSION, JUNCTION = -2, -1, -3, -5
+"""``BandPoint.station`` of the tip, the start, an extension point, and a point where a lip line
+meets a border or a border node the band's end runs through (lips: the station's index)."""
+
+
+@dataclass(frozen=True)
+class BandPoint:
+    """A vertex of the band: an existing node (``node`` >= 0), or a new point at ``rest`` [m]:
+    a lip of station ``station`` on ``side`` (+1 left, -1 right), the tip (``TIP``, side 0), the
+    start (``START``) or an extension into an opening (``EXTENSION``)."""
+
+    rest: np.ndarray
+    side: int
+    station: int
+    u: float
+    node: int = -1
+
+
+@dataclass
+class SlitBand:
+    """The band of one event: its runs (each a closed ring of ``BandPoint``, the band on the
+    right of the ring: left lip up, right lip down) and the arc lengths [m] of the stations its
+    lips belong to."""
+
+    runs: list = field(default_factory=list)
+    stations: list = field(default_factory=list)
+
+
+def _runs(on_tissue: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) sample index of each run of True in ``on_tissue``."""
+    out, start = [], None
+    for k, inside in enumerate(on_tissue):
+        if inside and start is None:
+            start = k
+        if not inside and start is not None:
+            out.append((start, k - 1))
+            start = None
+    if start is not None:
+        out.append((start, len(on_tissue) - 1))
+    return out
+
+
+def _point(inc: Incision, u: float, side: int, station: int, node: int = -1) -> BandPoint:
+    rest = inc.lip_position(u, side) if side != 0 else inc.point_at(u)[0]
+    return BandPoint(np.asarray(rest, dtype=np.float64), side, station, float(u), node)
+
+
+def _crossing(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> float | None:
+    """Parameter t in [0, 1] along a-b (2,) where it crosses segment p-q (2,), or None."""
+    r, s = b - a, q - p
+    denom = r[0] * s[1] - r[1] * s[0]
+    if abs(denom) <= 1e-300:
+        return None
+    rel = p - a
+    t = (rel[0] * s[1] - rel[1] * s[0]) / denom
+    w = (rel[0] * r[1] - rel[1] * r[0]) / denom
+    return float(t) if 0.0 <= t <= 1.0 and 0.0 <= w <= 1.0 else None
+
+
+def _meet(line: np.ndarray, borders: np.ndarray, flat) -> tuple[np.ndarray, int] | None:
+    """(the point [m] (3,), the border edge's row) where the polyline ``line`` (k, 3) first meets
+    one of the border edges ``borders`` (e, 2, 3), in the plane map ``flat``; None if none."""
+    if not len(borders):
+        return None
+    l2, b2 = flat(line), flat(borders)
+    for k in range(len(line) - 1):
+        best = None
+        for e in range(len(borders)):
+            t = _crossing(l2[k], l2[k + 1], b2[e, 0], b2[e, 1])
+            if t is not None and (best is None or t < best[0]):
+                best = (t, e)
+        if best is not None:
+            t, e = best
+            return line[k] + t * (line[k + 1] - line[k]), e
+    return None
+
+
+def _border_chain(edges: np.ndarray, first: int, last: int) -> list[int] | None:
+    """Nodes of the shortest path of border edges from edge ``first`` to edge ``last`` (rows of
+    ``edges`` (e, 2) node pairs), starting at an end of ``first`` and ending at an end of
+    ``last``; [] if they are the same edge; None if they do not join."""
+    if first == last:
+        return []
+    graph: dict[int, set] = {}
+    for a, b in edges:
+        graph.setdefault(int(a), set()).add(int(b))
+        graph.setdefault(int(b), set()).add(int(a))
+    goal = {int(v) for v in edges[last]}
+    paths = {int(v): [int(v)] for v in edges[first]}
+    frontier = list(paths)
+    while frontier:
+        nxt = []
+        for v in frontier:
+            if v in goal:
+                return paths[v]
+            for w in graph.get(v, ()):
+                if w not in paths:
+                    paths[w] = paths[v] + [w]
+                    nxt.append(w)
+        frontier = nxt
+    return None
+
+
+def _snapped(meet: np.ndarray, edge: np.ndarray, points: np.ndarray, snap: float, u: float, side: int) -> BandPoint:
+    """The band's point where a lip line meets border edge ``edge`` (2,) at ``meet`` (3,) [m]:
+    the edge's nearer node if within ``snap`` [m] of it (node matching: no tiny edge beside
+    it), else the meeting point itself."""
+    d = np.linalg.norm(points[edge] - meet, axis=1)
+    k = int(np.argmin(d))
+    if d[k] <= snap:
+        return BandPoint(points[edge[k]], side, JUNCTION, u, int(edge[k]))
+    return BandPoint(meet, side, JUNCTION, u)
+
+
+def _junction(inc: Incision, u0: float, direction: int, reach: float, borders, points: np.ndarray):
+    """The band's end where it runs from arc length ``u0`` [m] in ``direction`` (-1 back, +1 on)
+    out of the tissue into an opening: its lip lines' meeting points with the opening's border
+    (``borders``: node pairs (e, 2) of border edges) and the border's nodes between them, as
+    (left meeting, nodes from the right meeting's side to the left's, right meeting); None
+    if a lip line meets no border within ``reach`` [m] or the two meet unjoined borders."""
+    edges = np.asarray(borders, dtype=np.int64).reshape(-1, 2)
+    if not len(edges):
+        return None
+    us = u0 + direction * np.linspace(0.0, reach, max(2, int(np.ceil(reach / (0.05 * inc.spacing))) + 1))
+    normal = inc.normal_at(np.array([u0]))[0]
+    e1 = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+
+    def flat(x):
+        return np.stack([x @ e1, x @ e2], axis=-1)
+
+    segments = points[edges]
+    meets = []
+    for side in (1, -1):
+        line = np.array([inc.lip_position(v, side) for v in us])
+        hit = _meet(line, segments, flat)
+        if hit is None:
+            return None
+        meets.append(hit)
+    (left, e_left), (right, e_right) = meets
+    chain = _border_chain(edges, e_right, e_left)
+    if chain is None:
+        return None
+    snap = SNAP * inc.spacing
+    left_point = _snapped(left, edges[e_left], points, snap, u0, 1)
+    right_point = _snapped(right, edges[e_right], points, snap, u0, -1)
+    chain = [w for w in chain if w not in (left_point.node, right_point.node)]
+    return left_point, chain, right_point
+
+
+def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: list[float],
+              pair: tuple[int, int] | None, pair_u: float, start: int | None, start_possible: bool,
+              extension: float, margin: float, points: np.ndarray, borders=()) -> SlitBand:
+    """The band of an event cutting ``inc`` along the samples ``u`` (k,) [m] (the last one the
+    tip's), ``on_tissue`` (k,) bool; ``stations``: arc lengths of the new stations; ``pair``:
+    the incision's newest live lip pair (left, right) at ``pair_u`` [m], which the band closes
+    onto when its first run starts at the piece's start, else None; ``start``: the start node
+    (None: a new one, where the run starts at the incision's start and ``start_possible``);
+    ``extension``: how far past a run's end in an opening the band goes at most [m]; ``margin``:
+    no lip nearer an opening end than this [m]; ``points``: rest positions by node slot [m];
+    ``borders``: node pairs (e, 2) of the tissue's border edges near (the incision's own slit
+    left out), where a run's end in an opening meets them."""
+    band = SlitBand(stations=list(stations))
+    for first, last in _runs(np.asarray(on_tissue, dtype=bool)):
+        ua, ub = float(u[first]), float(u[last])
+        left, right = [], []
+        if first == 0 and pair is not None:  # closes onto the slit cut before
+            left.append(BandPoint(points[pair[0]], 1, -4, pair_u, pair[0]))
+            right.append(BandPoint(points[pair[1]], -1, -4, pair_u, pair[1]))
+            lo = pair_u
+        elif first == 0 and ua <= 1e-12 and start_possible:  # the incision's start
+            left.append(_point(inc, 0.0, 0, START, -1 if start is None else start))
+            lo = 0.0
+        else:  # from an opening
+            back = _junction(inc, ua, -1, 3.0 * extension, borders, points)
+            if back is None:
+                left.append(_point(inc, ua - extension, 1, EXTENSION))
+                right.append(_point(inc, ua - extension, -1, EXTENSION))
+            else:
+                meet_left, chain, meet_right = back
+                left.append(meet_left)
+                right.append(meet_right)
+                left[:0] = [BandPoint(points[w], 0, JUNCTION, ua, w) for w in chain]
+            lo = ua + margin
+        hi = ub if last == len(u) - 1 else ub - margin
+        for k, s in enumerate(stations):
+            if lo < s <= hi + 1e-12:
+                left.append(_point(inc, s, 1, k))
+                right.append(_point(inc, s, -1, k))
+        if last == len(u) - 1:  # the tip
+            front = [_point(inc, ub, 0, TIP)]
+        else:  # into an opening
+            ahead = _junction(inc, ub, 1, 3.0 * extension, borders, points)
+            if ahead is None:
+                front = [_point(inc, ub + extension, 1, EXTENSION), _point(inc, ub + extension, -1, EXTENSION)]
+            else:
+                meet_left, chain, meet_right = ahead
+                front = [meet_left] + [BandPoint(points[w], 0, JUNCTION, ub, w) for w in chain[::-1]] + [meet_right]
+        band.runs.append(left + front + right[::-1])
+    return band
