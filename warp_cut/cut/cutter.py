@@ -321,7 +321,7 @@ class Cutter:
         cut (too short a piece, or a slit that does not fit: the next event tries again)."""
         editor = self.editor
         first = not inc.station_u and inc.tip_node < 0
-        unopened = inc.starts_on_tissue and inc.start_node < 0 and inc.last_pair(self.model.active) < 0
+        unopened = inc.last_pair(self.model.active) < 0  # until a lip pair stands, cut from the start again
         u_from = 0.0 if inc.cut_point is None or unopened else float(inc.project(inc.cut_point[None])[0][0])
         if upto - u_from < MIN_ADVANCE * self.spacing:
             return False

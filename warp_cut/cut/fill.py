@@ -44,6 +44,8 @@ class Fill:
     unrefined: int = 0
     input_count: int = 0
     """How many of ``points`` were given (the rest were inserted)."""
+    reasons: dict = field(default_factory=dict)
+    """Why the refinement left triangles as they were: reason -> count (PythonCDT's ``Unrefined``)."""
 
 
 def _constraint_edges(edges) -> np.ndarray:
@@ -69,8 +71,8 @@ def fill_region(points: np.ndarray, edges, *, min_angle_deg: float, min_edge: fl
     tri.insert_vertices(points)
     tri.insert_edges(edges)
     erase = tri.collect_outer_triangles_and_holes()
-    tri.refine_triangles(max_points, cdt.RefinementCriterion.SMALLEST_ANGLE, cdt.deg_to_rad(min_angle_deg),
-                         erase, min_edge)
+    why = tri.refine_triangles(max_points, cdt.RefinementCriterion.SMALLEST_ANGLE, cdt.deg_to_rad(min_angle_deg),
+                               erase, min_edge)
     tri.finalize_triangulation(erase)
     vertices = tri.vertices_array()
     out = np.stack([vertices["x"], vertices["y"]], axis=1)
@@ -81,7 +83,10 @@ def fill_region(points: np.ndarray, edges, *, min_angle_deg: float, min_edge: fl
     split = {tuple(sorted((e.v1, e.v2))) for originals in tri.piece_to_originals.values() for e in originals}
     unrefined = len(tri.find_unrefined_triangles(cdt.RefinementCriterion.SMALLEST_ANGLE,
                                                  cdt.deg_to_rad(min_angle_deg)))
-    return Fill(out, triangles, {(int(a), int(b)) for a, b in split}, unrefined, len(points))
+    reasons = {name: getattr(why, name) for name in ("short_edge_triangles", "circumcenter_outside",
+                                                      "circumcenter_on_vertex", "sharp_fixed_corner", "short_edges",
+                                                      "split_vertex_invalid") if getattr(why, name)}
+    return Fill(out, triangles, {(int(a), int(b)) for a, b in split}, unrefined, len(points), reasons)
 
 
 def _counter_clockwise(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -56,5 +56,5 @@ MERGE = 0.1
 """A new point of the slit's outline (a lip, where a lip line meets a border) within this [x s]
 of a node next to it on the outline is left out: the outline goes straight on to the node."""
 
-MIN_EDGE = 0.05
+MIN_EDGE = 0.01
 """Shortest edge the refinement may make [x s]."""
