@@ -34,6 +34,7 @@ from ..errors import InputError
 from ..kernels import cutting as cut_kernels
 from ..kernels import scatter
 from ..mesh.checks import cuttable_problems
+from ..mesh.triangulate import border_loop_count
 from ..sim.control import Tool
 from ..sim.model import TissueModel
 from ..sim.strokes import inside_cylinder
@@ -110,8 +111,7 @@ class Cutter:
         """Live triangles the cut made (slots)."""
         self.skipped: dict[str, int] = {}
         """Why events were left for the next one (the slit did not fit its region): reason -> count."""
-        self.unfilled_holes = 0
-        """Holes the cut left open: none (every event fills its region); kept for the metrics."""
+        self._loops_before = border_loop_count(model.triangles)
         for module in (cut_kernels, scatter):  # compiled now, so no cut event pays for it
             wp.load_module(module, device=device)
 
@@ -347,6 +347,9 @@ class Cutter:
         t4 = time.perf_counter()
         inc.cut_point = piece[-1].copy()
         self._wound_links(inc, piece, cut)
+        split = editor.split_pinched_nodes(editor.touched_nodes, positions)
+        cut.inserted += split
+        cut.met_border |= bool(split)  # a node split apart may be all that held a piece
         self._free_islands(cut)
         report = editor.finish(positions=positions)
         takers = cut.lips + cut.inserted + list(editor.touched_nodes)
@@ -459,6 +462,13 @@ class Cutter:
         ``warp_cut.cut.measures.lip_deviation``)."""
         return lip_deviation(self.incisions, self.model, positions, in_plane=in_plane)
 
+    @property
+    def unfilled_holes(self) -> int:
+        """Holes in the tissue, measured on the mesh: its border loops beyond those it had
+        before the first cut and one per incision (a slit inside the tissue adds one; one that
+        runs off the border or into an earlier wound adds none)."""
+        return max(0, border_loop_count(self.model.triangles) - self._loops_before - len(self.incisions))
+
     def coverage(self, positions: np.ndarray) -> float:
         """Fraction of the blade's path in the rest shape (its crossings, from where it entered)
         that the opened incisions cover, within 0.5 spacing."""
@@ -512,3 +522,4 @@ def _crossing_at(point, normal) -> Crossing:
     """A crossing at ``point`` [m] with unit outward ``normal`` (the direct API's)."""
     n = np.asarray(normal, dtype=np.float64)
     return Crossing(np.asarray(point, dtype=np.float64), n / np.linalg.norm(n), float("nan"), True)
+

@@ -136,6 +136,8 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
     region = Region.around(model, piece, on_tissue, near, clearance(inc), REGION_MARGIN * s, protected, provisional)
     band = _band(model, inc, u, on_tissue, region, first, near)
     _add_old_tip(model, inc, region, band)
+    if not region.triangles:
+        raise SlitDoesNotFit("no tissue around the piece")
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
     chart = RegionChart.of_triangles(model.points[corners])
     wedges: list = []
@@ -213,7 +215,7 @@ def _lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: Region
     """
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
     tissue = shapely.union_all(shapely.polygons(chart.to2d(model.points[corners])))
-    rings = [chart.to2d(np.array([p.rest for p in run])) for run in band.runs]
+    rings = [_distinct(chart.to2d(np.array([p.rest for p in run]))) for run in band.runs]
     cut = shapely.union_all([shapely.make_valid(shapely.Polygon(r)) for r in rings if len(r) >= 3]
                             + [shapely.Polygon(w) for w in wedges])
     grid = 1e-6 * inc.spacing  # slivers of rounding where the band runs along a border collapse on it
@@ -243,6 +245,15 @@ def _lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: Region
     turns = {b: (where[b], where[a], where[c]) for loop in loops
              for a, b, c in zip(loop[-1:] + loop[:-1], loop, loop[1:] + loop[:1])}
     return _Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations)
+
+
+def _distinct(ring: np.ndarray) -> np.ndarray:
+    """The ring (k, 2) without a point equal to the one before it (cyclically): a band whose two
+    ends close on one node."""
+    if len(ring) < 2:
+        return ring
+    keep = np.any(ring != np.roll(ring, 1, axis=0), axis=1)
+    return ring[keep]
 
 
 class _VertexTable:

@@ -110,6 +110,24 @@ def _meet(line: np.ndarray, borders: np.ndarray, flat) -> tuple[np.ndarray, int]
     return None
 
 
+def _passing(line: np.ndarray, edges: np.ndarray, points: np.ndarray, flat, limit: float):
+    """(the node's rest position (3,), a border edge's row at it) of the border node nearest the
+    polyline ``line`` (k, 3) that it passes within ``limit`` [m] of without crossing a border
+    (a lip line passing the tip of an earlier slit: the band's end closes on that tip); None if
+    there is none."""
+    nodes = np.unique(edges)
+    l2, n2 = flat(line), flat(points[nodes])
+    a, b = l2[:-1][None], l2[1:][None]                                   # (1, k-1, 2)
+    d = b - a
+    t = np.clip(np.sum((n2[:, None] - a) * d, axis=-1) / np.maximum(np.sum(d * d, axis=-1), 1e-300), 0.0, 1.0)
+    dist = np.linalg.norm(a + t[..., None] * d - n2[:, None], axis=-1).min(axis=1)  # (n,)
+    k = int(np.argmin(dist))
+    if dist[k] > limit:
+        return None
+    row = int(np.flatnonzero((edges == nodes[k]).any(axis=1))[0])
+    return points[nodes[k]], row
+
+
 def _border_chain(edges: np.ndarray, first: int, last: int) -> list[int] | None:
     """Nodes of the shortest path of border edges from edge ``first`` to edge ``last`` (rows of
     ``edges`` (e, 2) node pairs), starting at an end of ``first`` and ending at an end of
@@ -169,7 +187,7 @@ def _junction(inc: Incision, u0: float, direction: int, reach: float, borders, p
     meets = []
     for side in (1, -1):
         line = np.array([inc.lip_position(v, side) for v in us])
-        hit = _meet(line, segments, flat)
+        hit = _meet(line, segments, flat) or _passing(line, edges, points, flat, reach / 3.0)
         if hit is None:
             return None
         meets.append(hit)
@@ -198,6 +216,8 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
     left out), where a run's end in an opening meets them."""
     band = SlitBand(stations=list(stations))
     for first, last in _runs(np.asarray(on_tissue, dtype=bool)):
+        if first == last and 0 < first < len(u) - 1 or (first == last == 0 and pair is None and not start_possible):
+            continue  # one sample between openings: no length of tissue to open
         ua, ub = float(u[first]), float(u[last])
         left, right = [], []
         if first == 0 and pair is not None:  # closes onto the slit cut before

@@ -299,6 +299,30 @@ class TopologyEditor:
         self.report.new_triangles.append(slot)
         return slot
 
+    def split_pinched_nodes(self, nodes, positions) -> list[int]:
+        """Give each node of ``nodes`` whose triangles make several fans (pieces that share no
+        edge at it: tissue held together by one node, where a slit ran into another) one copy
+        per fan but its largest, at the same rest and current position (``positions``, a
+        NodePositions the copies' positions go into); returns the copies. A fan's triangles
+        are made again on its copy; the springs left on no triangle go at ``finish``."""
+        model = self.model
+        copies = []
+        for v in sorted({int(v) for v in nodes}):
+            if not model.active[v]:
+                continue
+            corners = model.triangle_table.column("corners")  # the table grows as fans are made again
+            fans = _fans(v, self.node_triangles[v], corners)
+            for fan in sorted(fans, key=len)[:-1]:
+                tris = [tuple(int(x) for x in corners[t]) for t in sorted(fan)]
+                copy = int(self.add_nodes(model.points[v][None], NodeClass(int(model.node_class[v])))[0])
+                model.node_table.set("pinned", [copy], [bool(model.pinned[v])])
+                positions[copy] = positions[v]
+                self.delete_triangles(sorted(fan))
+                for tri in tris:
+                    self.add_triangle([copy if x == v else x for x in tri], model.points)
+                copies.append(copy)
+        return copies
+
     def set_spring_class(self, slot: int, spring_class: int) -> None:
         self.model.spring_table.set("spring_class", [slot], spring_class)
 
@@ -440,3 +464,27 @@ class TopologyEditor:
                               deleted_nodes=report.deleted_nodes, deleted_springs=report.deleted_springs,
                               deleted_triangles=report.deleted_triangles, deleted_links=report.deleted_links,
                               hinge_nodes=self.hinge_nodes_changed)
+
+
+def _fans(v: int, triangles, corners: np.ndarray) -> list[set[int]]:
+    """The triangles at node ``v`` (slots) grouped into fans: pieces joined through an edge at v."""
+    fans: list[set[int]] = []
+    by_other: dict[int, list[int]] = {}
+    for t in triangles:
+        for x in corners[t]:
+            if int(x) != v:
+                by_other.setdefault(int(x), []).append(int(t))
+    seen: set[int] = set()
+    for t in triangles:
+        if t in seen:
+            continue
+        fan, todo = set(), [int(t)]
+        while todo:
+            u = todo.pop()
+            if u in fan:
+                continue
+            fan.add(u)
+            todo += [w for x in corners[u] if int(x) != v for w in by_other[int(x)]]
+        seen |= fan
+        fans.append(fan)
+    return fans

@@ -16,7 +16,7 @@ from ..errors import InputError
 from .geometry import triangle_min_angles
 
 __all__ = ["zip_rows", "lattice", "jitter_lattice", "disk_points", "delaunay", "trim_border_slivers",
-           "boundary_edges", "border_loops", "topology_problems"]
+           "boundary_edges", "border_loops", "border_loop_count", "topology_problems"]
 
 
 def zip_rows(lower, upper, lower_u, upper_u) -> list[tuple[int, int, int]]:
@@ -192,6 +192,12 @@ def border_loops(border: np.ndarray) -> int:
     for a, b in border:
         parent[root(int(a))] = root(int(b))
     return len({root(v) for v in parent})
+
+
+def border_loop_count(triangles) -> int:
+    """Border loops of the triangles (t, 3): connected pieces of their border edges."""
+    edges = boundary_edges(triangles)
+    return border_loops(edges) if len(edges) else 0
 
 
 def topology_problems(triangles, node_count: int, expected_loops: int = 1) -> list[str]:

@@ -42,8 +42,9 @@ class StrokeResult:
     incisions: int = 0
     """Incisions the stroke started (one stroke should make one)."""
     unfilled_holes: int = 0
-    """Holes the stroke's incisions left open after the tool had left (their part of
-    ``cutter.unfilled_holes``)."""
+    """Holes the stroke left open after the tool had left, measured on the mesh: border loops
+    it added beyond one per incision (a slit inside the tissue adds one, one that runs off
+    the border or into an earlier wound none)."""
     coverage: float = float("nan")
     curve_coverage: float = float("nan")
     lip_deviation_max: float = float("nan")
@@ -97,7 +98,6 @@ def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
     cutter, model = sim.cutter, sim.model
     result.incisions = len(cutter.incisions) - before["incisions"]
     mine = cutter.incisions[before["incisions"]:]
-    result.unfilled_holes = cutter.unfilled_holes
     tol = coverage_tolerance(surface.spacing, stroke.radius)
     result.coverage = coverage(stroke, surface, model.points, wound_edges(model, border_keys), tol, before["skin"])
     result.curve_coverage = curve_coverage(stroke, surface, [np.array(i.path) for i in mine], tol)
@@ -105,6 +105,7 @@ def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
         stroke, model, before["nodes"])
     result.slivers, result.min_new_angle_deg = new_slivers(model, sim.positions, before["triangles"])
     result.border_loops_added = border_loop_count(model) - before["loops"]
+    result.unfilled_holes = max(0, result.border_loops_added - result.incisions)
     n = before["latency"]
     stages = [np.asarray(v[n:]) for v in cutter.latency_ms.values()]
     result.latency_ms = (np.sum(stages, axis=0).tolist() if stages and len(stages[0]) else [])

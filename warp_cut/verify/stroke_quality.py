@@ -35,7 +35,8 @@ import numpy as np
 
 from ..cut.classes import NodeClass
 from ..mesh.geometry import SLIVER_DEG, triangle_min_angles
-from ..mesh.triangulate import border_loops, boundary_edges
+from ..mesh.triangulate import border_loop_count as loops_of
+from ..mesh.triangulate import boundary_edges
 
 __all__ = ["original_border", "wound_edges", "skin_at_rest", "coverage", "curve_coverage", "lip_deviation",
            "new_slivers", "segment_distances", "border_loop_count"]
@@ -169,5 +170,4 @@ def new_slivers(model, positions, first_new_triangle: int) -> tuple[int, float]:
 
 def border_loop_count(model) -> int:
     """Connected pieces of the live mesh's border edges (border loops when none is pinched)."""
-    edges = boundary_edges(model.triangles)
-    return border_loops(edges) if len(edges) else 0
+    return loops_of(model.triangles)

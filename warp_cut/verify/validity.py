@@ -105,19 +105,25 @@ def cut_problems(sim, surface=None, *, first_new_triangle: int | None = None) ->
 
 
 def _flip_problems(sim, x, surface, first_new) -> list[str]:
-    """Triangles turned against the analytic normal: ``tri_flipped_new`` for those the latest
-    edit made (wound wrong when made: a cut error), ``tri_flipped_cut`` for those an earlier
-    edit made and ``tri_flipped_tissue`` for original ones (both turned over since, by the
-    motion, e.g. the tool pushing nodes across each other)."""
+    """Triangles turned against the analytic normal: ``tri_against_rest`` in the rest shape (a
+    cut error: the cut is decided there), and where the nodes are now ``tri_flipped_new`` for
+    those the latest edit made (made inside tissue the tool had folded: a new node's current
+    position comes from the current shape of the rest triangle it lies in),
+    ``tri_flipped_cut`` for those an earlier edit made and ``tri_flipped_tissue`` for original
+    ones (turned over since, by the motion, e.g. the tool pushing nodes across each other)."""
     model = sim.model
+    out = []
+    against = flipped_triangles(model.points, model.triangles, surface.chart)
+    if len(against):  # the rest shape is the cut's to keep right, whatever the motion did
+        out.append(f"tri_against_rest: {len(against)} triangles wound against the analytic normal in the rest "
+                   f"shape (slots {model.triangle_table.live_slots()[against][:5].tolist()})")
     flipped = flipped_triangles(x, model.triangles, surface.chart)
     if not len(flipped):
-        return []
+        return out
     slots = model.triangle_table.live_slots()[flipped]
     made = np.isin(slots, np.fromiter(sim.cutter.new_triangles, dtype=np.int64)) \
         if sim.cutter is not None else np.zeros(len(slots), bool)
     new = slots >= (first_new if first_new is not None else np.iinfo(np.int64).max)
-    out = []
     for name, mask, what in (("tri_flipped_new", new, "made by the latest edit"),
                              ("tri_flipped_cut", made & ~new, "made by an earlier edit"),
                              ("tri_flipped_tissue", ~made & ~new, "of the original tissue")):
