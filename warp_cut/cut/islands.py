@@ -2,9 +2,9 @@
 
 When a slit runs into an opening (an earlier wound, the tissue's edge), the piece of tissue it
 bounds may come free. The triangles joined through shared edges to those the edit made are
-grown into their connected pieces, all at once, one layer at a time; once only one piece is
-still growing, every other one is finished and smaller, so the search costs what the small
-pieces hold, not the whole tissue. A finished piece that holds no pinned node (or is smaller
+grown into their connected pieces one layer at a time, the smallest piece first; once only one
+piece is still growing, every other one is finished and smaller, so the search costs about
+what the small pieces hold, not the whole tissue. A finished piece that holds no pinned node (or is smaller
 than the one still growing) is an island.
 
 Triangles are slots of the model's triangle table.
@@ -42,20 +42,20 @@ def islands_from(model, seeds, limit: int | None = None) -> list[set[int]]:
             fronts.append([t])
     searched = len(owner)
     while sum(1 for f in fronts if f) > 1 and searched < limit:
-        for k in range(len(fronts)):
-            front, nxt = fronts[k], []
-            for t in front:
-                for n in _neighbours(model, t):
-                    other = owner.get(n)
-                    if other is None:
-                        owner[n] = k
-                        pieces[k].add(n)
-                        nxt.append(n)
-                        searched += 1
-                    elif other != k:  # two seeds' pieces touch: one piece
-                        nxt += fronts[other]
-                        _merge(owner, pieces, fronts, other, k)
-            fronts[k] = nxt
+        k = min((k for k, f in enumerate(fronts) if f), key=lambda k: len(pieces[k]))  # the smallest grows
+        front, nxt = fronts[k], []
+        for t in front:
+            for n in _neighbours(model, t):
+                other = owner.get(n)
+                if other is None:
+                    owner[n] = k
+                    pieces[k].add(n)
+                    nxt.append(n)
+                    searched += 1
+                elif other != k:  # two seeds' pieces touch: one piece
+                    nxt += fronts[other]
+                    _merge(owner, pieces, fronts, other, k)
+        fronts[k] = nxt
     if searched >= limit:
         return []
     growing = [k for k, f in enumerate(fronts) if f]

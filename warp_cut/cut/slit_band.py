@@ -80,8 +80,9 @@ def _point(inc: Incision, u: float, side: int, station: int, node: int = -1) -> 
     return BandPoint(np.asarray(rest, dtype=np.float64), side, station, float(u), node)
 
 
-def _crossing(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> float | None:
-    """Parameter t in [0, 1] along a-b (2,) where it crosses segment p-q (2,), or None."""
+def _crossing(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> tuple[float, float] | None:
+    """Parameters (t along a-b, w along p-q), both in [0, 1], where segment a-b (2,) crosses
+    segment p-q (2,), or None."""
     r, s = b - a, q - p
     denom = r[0] * s[1] - r[1] * s[0]
     if abs(denom) <= 1e-300:
@@ -89,24 +90,26 @@ def _crossing(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> flo
     rel = p - a
     t = (rel[0] * s[1] - rel[1] * s[0]) / denom
     w = (rel[0] * r[1] - rel[1] * r[0]) / denom
-    return float(t) if 0.0 <= t <= 1.0 and 0.0 <= w <= 1.0 else None
+    return (float(t), float(w)) if 0.0 <= t <= 1.0 and 0.0 <= w <= 1.0 else None
 
 
 def _meet(line: np.ndarray, borders: np.ndarray, flat) -> tuple[np.ndarray, int] | None:
-    """(the point [m] (3,), the border edge's row) where the polyline ``line`` (k, 3) first meets
-    one of the border edges ``borders`` (e, 2, 3), in the plane map ``flat``; None if none."""
+    """(the point [m] (3,) on the border edge, the edge's row) where the polyline ``line`` (k, 3)
+    first meets one of the border edges ``borders`` (e, 2, 3), in the plane map ``flat``; None if
+    none. The point lies on the edge itself (not on the line, which may pass above or below it
+    on a curved surface), so the band's end runs along the border in any chart."""
     if not len(borders):
         return None
     l2, b2 = flat(line), flat(borders)
     for k in range(len(line) - 1):
         best = None
         for e in range(len(borders)):
-            t = _crossing(l2[k], l2[k + 1], b2[e, 0], b2[e, 1])
-            if t is not None and (best is None or t < best[0]):
-                best = (t, e)
+            hit = _crossing(l2[k], l2[k + 1], b2[e, 0], b2[e, 1])
+            if hit is not None and (best is None or hit[0] < best[0]):
+                best = (hit[0], hit[1], e)
         if best is not None:
-            t, e = best
-            return line[k] + t * (line[k + 1] - line[k]), e
+            _, w, e = best
+            return borders[e, 0] + w * (borders[e, 1] - borders[e, 0]), e
     return None
 
 

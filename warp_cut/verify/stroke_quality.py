@@ -103,10 +103,13 @@ def _over_skin(uv: np.ndarray, skin: np.ndarray) -> np.ndarray:
     return inside
 
 
-def coverage(stroke, surface, rest_points, wound, tol: float, skin: np.ndarray | None = None) -> float:
+def coverage(stroke, surface, rest_points, wound, tol: float, skin: np.ndarray | None = None,
+             skin_now: np.ndarray | None = None) -> float:
     """Fraction of the trace open on both sides within ``tol`` [m] (see the module docstring).
     rest_points: node rest positions (n, 3) [m]; wound: (e, 2) wound-border node pairs; skin:
-    ``skin_at_rest`` when the stroke began (None: the whole trace counts)."""
+    ``skin_at_rest`` when the stroke began (None: the whole trace counts); skin_now:
+    ``skin_at_rest`` after the stroke, where given a side with no skin ``tol`` away (an island
+    the stroke freed and removed) counts as open."""
     uv, direction = _trace_samples(stroke, surface.spacing)
     if skin is not None:
         keep = _over_skin(uv, skin)
@@ -123,7 +126,12 @@ def coverage(stroke, surface, rest_points, wound, tol: float, skin: np.ndarray |
         side = direction[chunk][:, None, 0] * rel[..., 1] - direction[chunk][:, None, 1] * rel[..., 0]
         near = dist <= tol
         eps = SIDE_FRACTION * surface.spacing
-        covered[chunk] = (near & (side > eps)).any(axis=1) & (near & (side < -eps)).any(axis=1)
+        left, right = (near & (side > eps)).any(axis=1), (near & (side < -eps)).any(axis=1)
+        if skin_now is not None:
+            across = np.stack([-direction[chunk][:, 1], direction[chunk][:, 0]], axis=1) * tol
+            left |= ~_over_skin(uv[chunk] + across, skin_now)
+            right |= ~_over_skin(uv[chunk] - across, skin_now)
+        covered[chunk] = left & right
     return float(covered.mean())
 
 
