@@ -48,7 +48,7 @@ _SCHEMA: dict[str, set[str]] = {
     "physics": {"gravity", "residual_stress", "collision", "cutting", "foundation", "bending"},
     "solver": {"integrator", "dt", "substeps", "safety"},
     "tool": {"radius", "length", "keyframes"},
-    "cutting": {"sweep_radius", "interval", "force_threshold", "spacing", "tolerance", "lip_offset"},
+    "cutting": {"sweep_radius", "interval", "force_threshold", "spacing", "tolerance", "lip_offset", "keep_islands"},
 }
 """Allowed keys of each table ("" is the top level)."""
 
@@ -456,6 +456,7 @@ def _parse_cutting(r: _Reader, duration: float) -> CutSettings:
         given["interval"] = r.number(cut_t, "cutting", "interval", low=0, high=duration)
     if "force_threshold" in cut_t:
         given["force_threshold"] = r.number(cut_t, "cutting", "force_threshold", low=0, high=1e6)
+    given["keep_islands"] = r.boolean(cut_t, "cutting", "keep_islands", False)
     return CutSettings(**given)
 
 

@@ -63,13 +63,16 @@ def fill_region(points: np.ndarray, edges, *, min_angle_deg: float, min_edge: fl
     ``max_points`` points, none making an edge shorter than ``min_edge`` [m].
 
     Raises:
-        InputError: The loops do not bound a region (no triangle left).
+        InputError: The loops do not bound a region (no triangle left), or cross each other.
     """
     points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     edges = _constraint_edges(edges)
     tri = cdt.Triangulation(cdt.VertexInsertionOrder.AUTO, cdt.IntersectingConstraintEdges.TRY_RESOLVE, 0.0)
-    tri.insert_vertices(points)
-    tri.insert_edges(edges)
+    try:
+        tri.insert_vertices(points)
+        tri.insert_edges(edges)
+    except RuntimeError as err:  # PythonCDT: duplicate points, constraint edges that cross
+        raise InputError(f"the region's outline is not a set of simple loops: {err}") from err
     erase = tri.collect_outer_triangles_and_holes()
     why = tri.refine_triangles(max_points, cdt.RefinementCriterion.SMALLEST_ANGLE, cdt.deg_to_rad(min_angle_deg),
                                erase, min_edge)

@@ -124,12 +124,14 @@ def path_coverage(incisions: list[Incision], model, positions: np.ndarray, toler
 
 
 def _opened_stretches(inc: Incision, active: np.ndarray) -> list[tuple[float, float]]:
-    """Arc-length intervals [m] of ``inc`` along which both lips exist (the skin is open)."""
+    """Arc-length intervals [m] of ``inc`` along which both lips exist (the skin is open). A lip
+    (or end node) the cut made that a later edit removed (an island taken out with its side of
+    the slit, a later cut across it) stands for an opening there: open too."""
     u = np.asarray(inc.station_u)
-    alive = np.array([a >= 0 and b >= 0 and active[a] and active[b]
-                      for a, b in zip(inc.left, inc.right)], dtype=bool)
-    start_ok = inc.start_node >= 0 and active[inc.start_node]
-    end_ok = (inc.end_node >= 0 and active[inc.end_node]) or inc.reached_border
+    alive = np.array([a >= 0 and b >= 0 and (active[a] or active[b]) for a, b in zip(inc.left, inc.right)],
+                     dtype=bool)
+    start_ok = inc.start_node >= 0
+    end_ok = inc.end_node >= 0 or inc.reached_border
     knots = ([0.0] if start_ok else []) + list(u[alive]) + ([inc.length] if end_ok else [])
     flags = ([True] if start_ok else []) + [True] * int(alive.sum()) + ([True] if end_ok else [])
     out = []

@@ -44,10 +44,6 @@ MAX_GROWTH = 4
 fill is accepted as it is."""
 
 
-ALREADY_CUT = 0.6
-"""Curve closer than lip offset + ALREADY_CUT x s to an opening (an earlier wound) is already
-cut: going over a wound again does no new damage."""
-
 SNAP = 0.3
 """A lip line meeting a border (an earlier wound, the tissue's edge) within this [x s] of a border
 node meets it at that node (the paper's node matching: no tiny triangle beside it)."""
