@@ -119,7 +119,7 @@ def patch_sim(size=(0.02, 0.02), pinned="border", **cut):
     every node stays where it was made."""
     model = TissueModel.from_patch(size, SPACING, pinned=pinned)
     sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE,
-                    cutting=CutSettings(**cut) if cut else True)
+                    cutting=CutSettings(**cut))
     return model, sim
 
 

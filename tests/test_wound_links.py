@@ -1,5 +1,12 @@
-"""warp_cut/cut/wound_links.py: where the residual links of a cut go, and that they do not
-depend on how often the cut runs."""
+"""warp_cut/cut/wound_links.py: the residual links a cut leaves across its wound, and where they
+go when an edit takes one of their nodes.
+
+Compared against: the springs of the uncut patch that cross a line, counted here from their
+end points (a node on either side, the crossing between the cut's ends), the link force
+sigma_r t L0 of each (E eps_r x thickness x rest length), the station nearest where each spring
+crossed (from the crossing's x on a straight incision), nodes nearest a deleted one found with
+numpy, and the side of a straight incision each node lies on (the sign of y).
+"""
 
 import numpy as np
 import pytest
@@ -9,27 +16,12 @@ from warp_cut import Material, Simulator, TissueModel
 from warp_cut.cut.incision import Incision
 from warp_cut.cut.settings import CutSettings
 from warp_cut.cut.topology import TopologyEditor
-from warp_cut.cut.wound_links import align_links, carry_links, open_links
+from warp_cut.cut.wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
 SPACING = 0.002
 MATERIAL = Material(density=1000.0, thickness=1e-3, youngs_modulus=2e4, residual_strain=0.1)
-
-
-def straight_incision(model, y: float, lip_offset: float = 0.0015) -> tuple[Incision, list[int], list[int]]:
-    """An incision along x at height y [m] from x = -5 to +5 mm, ended, with three stations at
-    u = 3, 5, 7 mm whose lips are the patch nodes nearest the lip points ``lip_offset`` [m]
-    above and below; returns (incision, left lips, right lips)."""
-    inc = Incision([-0.005, y, 0.0], [0, 0, 1], spacing=SPACING, lip_offset=0.0005, tolerance=1e-5)
-    inc.extend([0.005, y, 0.0], 1e-6)
-    inc.open_end = False
-    inc.station_u = [0.003, 0.005, 0.007]
-    x = model.points
-    def nearest(p):
-        return int(np.argmin(np.linalg.norm(x - p, axis=1)))
-    inc.left = [nearest([u - 0.005, y + lip_offset, 0.0]) for u in inc.station_u]
-    inc.right = [nearest([u - 0.005, y - lip_offset, 0.0]) for u in inc.station_u]
-    assert len(set(inc.left + inc.right)) == 6
-    return inc, inc.left, inc.right
+SIGMA_T = 2e4 * 0.1 * 1e-3
+"""sigma_r x thickness [N/m]: a link's force per metre of its spring's rest length."""
 
 
 def patch():
@@ -37,145 +29,251 @@ def patch():
     return model, TopologyEditor(model)
 
 
-def test_a_link_between_lips_of_two_stations_moves_to_one_stations_pair():
-    """A link from the left lip of the first station to the right lip of the third is moved to
-    the middle station's pair (force and smoothing kept); a link within one station's pair, and
-    one joining two lips of one side, stay."""
-    model, editor = patch()
-    inc, left, right = straight_incision(model, 0.0)
-    editor.begin()
-    editor.make_links([(left[0], right[2]), (left[2], right[2]), (left[0], left[1])], [SPACING] * 3)
-    force, smoothing = model.link_force.copy(), model.link_smoothing.copy()
-    report = editor.finish()
-    moved = align_links(editor, inc, report.residual_links)
-    assert moved == 1 and report.moved_links == [report.residual_links[0]]
-    assert model.links.tolist() == [[left[1], right[1]], [left[2], right[2]], [left[0], left[1]]]
-    assert np.array_equal(model.link_force, force) and np.array_equal(model.link_smoothing, smoothing)
-    assert editor.node_links[left[0]] == {report.residual_links[2]}
-    assert editor.node_links[right[1]] == {report.residual_links[0]}
-
-
-def test_a_moved_link_goes_to_the_least_loaded_pair_between_its_stations():
-    """The middle pair already carries two links: a link across three stations goes to the
-    first or last pair (one link each is fewer than two), never to a dead lip's station."""
-    model, editor = patch()
-    inc, left, right = straight_incision(model, 0.0)
-    editor.begin()
-    editor.make_links([(left[1], right[1])], [SPACING])
-    editor.make_links([(left[1], right[1])], [SPACING], once_per_pair=False)
-    editor.make_links([(right[0], left[2])], [SPACING], once_per_pair=False)
-    report = editor.finish()
-    assert align_links(editor, inc, report.residual_links) == 1
-    assert model.links.tolist()[2] in ([left[0], right[0]], [left[2], right[2]])
-    # with the first station's left lip dead, the only least-loaded pair left is the last
-    editor.begin()
-    editor.delete_nodes([left[0]])
-    editor.make_links([(right[0], left[2])], [SPACING], once_per_pair=False)
-    report = editor.finish()
-    align_links(editor, inc, report.residual_links)
-    assert model.link_table.column("pairs")[report.residual_links[0]].tolist() == [left[2], right[2]]
-
-
-def test_a_node_the_cut_deleted_is_replaced_by_the_lip_at_the_station_where_the_spring_crossed():
-    """A pending link whose two nodes the cut deleted is made between the two lips of the
-    station nearest where the spring crossed the incision, whatever the deleted nodes' distance
-    to other lips; one with a live node keeps it. Without a lip within reach it waits while the
-    tool cuts and is lost once it has gone."""
-    model, editor = patch()
-    inc, left, right = straight_incision(model, 0.0, lip_offset=0.0026)  # lips on the rows at +-2.6 mm
-    x = model.points
-    # a spring crossing near x = 0 (u = 5 mm, the middle station) between the rows at
-    # +-0.87 mm, both nodes gone; the deleted nodes lie nearer the first station's lips
-    above = int(np.argmin(np.linalg.norm(x - [0.0005, 0.0009, 0.0], axis=1)))
-    below = int(np.argmin(np.linalg.norm(x - [-0.0005, -0.0009, 0.0], axis=1)))
-    assert x[above, 1] > 0.0 > x[below, 1] and {above, below}.isdisjoint(left + right)
-    assert abs(0.5 * (x[above, 0] + x[below, 0])) < 0.0006
-    keep = int(np.argmin(np.linalg.norm(x - [0.0025, 0.0009, 0.0], axis=1)))  # live, left side
-    editor.begin()
-    editor.delete_nodes([above, below])
-    inc.pending_links = [(above, below, SPACING, 0.0), (keep, below, SPACING, 0.0)]
-    lost = open_links(editor, inc, x, reach=0.0015)
-    editor.finish()
-    assert lost == 0 and inc.pending_links == []
-    assert model.links.tolist() == [[left[1], right[1]], [keep, right[1]]]
-    # no station within 1 mm of u = 8.5 mm (the last at 7 mm): kept pending while the tool
-    # cuts, then lost
-    far_above = int(np.argmin(np.linalg.norm(x - [0.0045, 0.0009, 0.0], axis=1)))
-    far_below = int(np.argmin(np.linalg.norm(x - [0.0035, -0.0009, 0.0], axis=1)))
-    editor.begin()
-    editor.delete_nodes([far_above, far_below])
-    inc.pending_links = [(far_above, far_below, SPACING, 0.0)]
-    inc.open_end = True
-    assert open_links(editor, inc, x, reach=0.001) == 0 and len(inc.pending_links) == 1
-    inc.open_end = False
-    assert open_links(editor, inc, x, reach=0.001) == 1 and inc.pending_links == []
-    editor.finish()
-
-
-def test_the_slit_tip_pair_takes_no_carried_link_while_the_tool_cuts():
-    """While the tool cuts, a link whose nodes the cut deleted and whose spring crossed at the
-    slit's tip station (its newest pair, next to the tool) waits; one crossing at the station
-    behind is made there, and so is a link whose two nodes survived, at the tip too. Once the
-    tool has gone the waiting one goes to the tip pair."""
-    model, editor = patch()
-    inc, left, right = straight_incision(model, 0.0, lip_offset=0.0026)
-    inc.open_end = True
-    x = model.points
-    def node(p):
-        return int(np.argmin(np.linalg.norm(x - p, axis=1)))
-    at_tip = (node([0.0025, 0.0009, 0.0]), node([0.0015, -0.0009, 0.0]))  # crosses at u = 7 mm
-    behind = (node([0.0005, 0.0009, 0.0]), node([-0.0005, -0.0009, 0.0]))  # u = 5 mm
-    alive = (node([0.0045, 0.0009, 0.0]), node([0.0035, -0.0009, 0.0]))  # u = 9 mm, both live
-    editor.begin()
-    editor.delete_nodes(list(at_tip + behind))
-    inc.pending_links = [(*at_tip, SPACING, 0.0), (*behind, SPACING, 0.0), (*alive, SPACING, 0.0)]
-    assert open_links(editor, inc, x, reach=0.0015) == 0
-    assert inc.pending_links == [(*at_tip, SPACING, 0.0)]
-    assert sorted(model.links.tolist()) == sorted([[left[1], right[1]], list(alive)])
-    inc.open_end = False
-    assert open_links(editor, inc, x, reach=0.0015) == 0 and inc.pending_links == []
-    assert model.links.tolist()[-1] == [left[2], right[2]]
-    editor.finish()
-
-
-def test_a_link_whose_two_nodes_an_edit_deletes_is_carried_to_a_lip_on_each_side():
-    """A link across the incision whose two nodes one edit deletes (the tip re-opened, a
-    capsule over re-closed tissue) goes to the nearest lip on each side, force and smoothing
-    kept; one whose two nodes lay on one side of the incision is lost (counted)."""
-    model, editor = patch()
-    inc, left, right = straight_incision(model, 0.0, lip_offset=0.0026)
-    x = model.points
-    def node(p):
-        return int(np.argmin(np.linalg.norm(x - p, axis=1)))
-    across = (node([0.0005, 0.0009, 0.0]), node([-0.0005, -0.0009, 0.0]))
-    one_side = (node([0.0025, 0.0009, 0.0]), node([0.0045, 0.0009, 0.0]))
-    editor.begin()
-    editor.make_links([across, one_side], [SPACING, SPACING])
-    force = model.link_force.copy()
-    report = editor.finish()
-    editor.begin()
-    editor.delete_nodes(list(across + one_side))
-    report = editor.finish()
-    assert sorted(report.severed_links)[0][:2] in (across, across[::-1]) and len(report.severed_links) == 2
-    lost = carry_links(editor, inc, report, x, reach=0.004)
-    assert lost == 1 and model.link_count == 1
-    for end, lips in zip(sorted(model.links[0], key=lambda v: v not in left), (left, right)):
-        assert end in lips  # a lip on each side, one nearest where the deleted node was
-        gone = across[0] if lips is left else across[1]
-        d = np.linalg.norm(x[lips] - x[gone], axis=1)
-        assert np.linalg.norm(x[end] - x[gone]) == pytest.approx(d.min())
-    assert model.link_force[0] == pytest.approx(force[0])
-
-
-def cut_between_rows(step: float, radius: float):
-    """A 12 mm cut between two rows of a 20 mm patch (the rows 0.87 mm either side of the line:
-    a tool of ``radius`` [m] over that deletes them), extended every ``step`` [m]; returns
-    (model, sim, y)."""
-    model = TissueModel.from_patch((0.02, 0.02), SPACING, pinned="border", material=MATERIAL)
-    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE, cutting=CutSettings())
+def between_rows(model) -> float:
+    """A height between the two rows of nodes nearest y = 0 (no node on the line)."""
     rows = np.unique(model.points[:, 1].round(9))
     k = np.searchsorted(rows, 0.0, side="right")
-    y = 0.5 * (rows[k - 1] + rows[k])
+    return float(0.5 * (rows[k - 1] + rows[k]))
+
+
+def node_at(model, x_mm: float, y: float) -> int:
+    """The patch node at (x_mm [mm], y [m]) (asserted to be there)."""
+    v = int(np.argmin(np.linalg.norm(model.points - [x_mm * 1e-3, y, 0.0], axis=1)))
+    assert np.linalg.norm(model.points[v] - [x_mm * 1e-3, y, 0.0]) < 1e-9
+    return v
+
+
+ROWS = (6e-3 / 7, 3 * 6e-3 / 7)
+"""Heights [m] of the patch's rows nearest the line y = 0 (0.857 and 2.571 mm; x even at
++0.857 and -2.571 mm, odd at -0.857 and +2.571 mm)."""
+
+
+def straight_incision(model) -> Incision:
+    """An incision along +x on y = 0 (between two rows) from x = -5 to +5 mm, with stations at
+    u = 4.2, 6.2, 8.2 mm (no spring crosses halfway between two, nor 1.5 mm from one): left
+    lips the nodes at (x, +2.571 mm), x = -1, 1, 3 mm, right lips those at (x - 1 mm, -2.571 mm)."""
+    inc = Incision([-0.005, 0.0, 0.0], [0, 0, 1], spacing=SPACING, lip_offset=0.0005, tolerance=1e-6)
+    inc.extend([0.005, 0.0, 0.0], 1e-9)
+    for x in (-1, 1, 3):
+        inc.add_station((x + 5.2) * 1e-3, node_at(model, x, ROWS[1]), node_at(model, x - 1, -ROWS[1]))
+    return inc
+
+
+def crossing_springs(model, y: float, x_from: float, x_to: float):
+    """Springs of ``model`` with a node on either side of the line at height y, crossing it at
+    x in [x_from, x_to]: (spring rows, crossing x)."""
+    p = model.points[model.springs]
+    below = (p[:, 0, 1] - y) * (p[:, 1, 1] - y) < 0
+    t = (y - p[:, 0, 1]) / np.where(below, p[:, 1, 1] - p[:, 0, 1], 1.0)
+    at = p[:, 0, 0] + t * (p[:, 1, 0] - p[:, 0, 0])
+    rows = np.flatnonzero(below & (at >= x_from) & (at <= x_to))
+    return rows, at[rows]
+
+
+def pairs_of(model) -> list[tuple[int, int]]:
+    return sorted(tuple(sorted(map(int, pair))) for pair in model.links)
+
+
+# ----------------------------------------------------------------------------- OriginalSprings
+
+def test_original_springs_keep_the_tissue_as_built_and_find_every_spring_in_a_box():
+    """The springs' pairs, rest lengths and rest end points are copies (an edit does not change
+    them); a box query returns every spring whose midpoint lies in the box, and nothing farther
+    than two grid cells beyond it."""
+    model, editor = patch()
+    springs = OriginalSprings(model)
+    pairs, lengths = model.springs.copy(), model.rest_lengths.copy()
+    editor.begin()
+    editor.delete_nodes([int(np.argmin(np.linalg.norm(model.points, axis=1)))])
+    editor.finish()
+    assert np.array_equal(springs.pairs, pairs) and np.array_equal(springs.rest_lengths, lengths)
+    mid = 0.5 * (springs.a + springs.b)
+    lo, hi = np.array([-0.003, -0.001, -1.0]), np.array([0.001, 0.002, 1.0])
+    found = set(springs.near(lo, hi).tolist())
+    inside = set(np.flatnonzero(np.all((mid >= lo) & (mid <= hi), axis=1)).tolist())
+    assert inside and inside <= found
+    reach = 2 * springs.cell
+    assert np.all(np.all((mid[list(found)] >= lo - reach) & (mid[list(found)] <= hi + reach), axis=1))
+
+
+# ----------------------------------------------------------------------------- link_crossed_springs
+
+def test_every_spring_the_piece_crosses_with_both_nodes_alive_is_linked_between_them():
+    """A piece of curve between two rows, from x = -5 to 5 mm, nothing deleted: each spring
+    crossing it between its ends (counted here) gets one link between its own two nodes, of
+    sigma_r t L0; linking the piece again with the same record makes none."""
+    model, editor = patch()
+    springs = OriginalSprings(model)
+    y = between_rows(model)
+    inc = straight_incision(model)
+    rows, _ = crossing_springs(model, y, -0.005, 0.005)
+    seen: set = set()
+    editor.begin()
+    link_crossed_springs(editor, inc, springs, inc.point_at(np.linspace(0, inc.length, 21)), seen)
+    editor.finish()
+    assert len(rows) > 0 and pairs_of(model) == sorted(tuple(sorted(model.springs[r])) for r in rows)
+    assert model.link_force.sum() == pytest.approx(SIGMA_T * model.rest_lengths[rows].sum())
+    assert inc.pending_links == [] and len(seen) == len(rows)
+    editor.begin()
+    link_crossed_springs(editor, inc, springs, inc.point_at(np.linspace(0, inc.length, 21)), seen)
+    editor.finish()
+    assert model.link_count == len(rows)
+
+
+def test_a_crossed_spring_whose_node_is_gone_links_the_lip_pair_of_the_station_nearest_its_crossing():
+    """The two rows beside the line deleted (as the band does): each crossed spring's link goes
+    to the lip pair of the station nearest where it crossed, if within 0.75 spacing along the
+    curve; the others wait, each with its crossing's arc length and rest length, and go to the
+    nearest pair once settled without a reach (the incision's end)."""
+    model, editor = patch()
+    springs = OriginalSprings(model)
+    y = between_rows(model)
+    inc = straight_incision(model)
+    rows, at = crossing_springs(model, y, -0.005, 0.005)
+    ends = np.unique(model.springs[rows])
+    editor.begin()
+    editor.delete_nodes(ends.tolist())
+    link_crossed_springs(editor, inc, springs, inc.point_at(np.linspace(0, inc.length, 21)), set())
+    u_cross = at + 0.005
+    station_u = np.array(inc.station_u)
+    nearest = np.argmin(np.abs(u_cross[:, None] - station_u[None]), axis=1)
+    near_enough = np.abs(u_cross - station_u[nearest]) <= 0.75 * SPACING
+    expected = sorted(tuple(sorted((inc.left[k], inc.right[k]))) for k in nearest[near_enough])
+    assert near_enough.any() and not near_enough.all()
+    assert pairs_of(model) == expected
+    waiting = sorted(zip(u_cross[~near_enough], springs.rest_lengths[rows[~near_enough]]))
+    assert np.array(sorted(inc.pending_links)) == pytest.approx(np.array(waiting))
+    settle_pending_links(editor, inc, reach=np.inf)
+    editor.finish()
+    assert inc.pending_links == []
+    assert pairs_of(model) == sorted(tuple(sorted((inc.left[k], inc.right[k]))) for k in nearest)
+    assert model.link_force.sum() == pytest.approx(SIGMA_T * springs.rest_lengths[rows].sum())
+
+
+# ----------------------------------------------------------------------------- settle_pending_links
+
+def pair(inc, k: int) -> tuple[int, int]:
+    return tuple(sorted((inc.left[k], inc.right[k])))
+
+
+def test_pending_links_go_to_the_nearest_live_pair_within_reach_and_wait_otherwise():
+    """Stations at u = 4.2, 6.2, 8.2 mm. Within a 1.5 mm reach a link crossing at 5.9 mm goes to
+    the middle pair, one at 9.8 mm (1.6 mm past the last) waits; with the middle pair's left lip
+    dead, a link at 5.0 mm goes to the first pair (0.8 mm) rather than the last (3.2 mm); with
+    no reach the waiting one goes to the last pair. Forces sigma_r t L0 of each rest length."""
+    model, editor = patch()
+    inc = straight_incision(model)
+    editor.begin()
+    inc.pending_links = [(0.0059, 0.002), (0.0098, 0.0017)]
+    settle_pending_links(editor, inc, reach=0.0015)
+    assert pairs_of(model) == [pair(inc, 1)]
+    assert inc.pending_links == [(0.0098, 0.0017)]
+    editor.delete_nodes([inc.left[1]])
+    inc.pending_links.append((0.0050, 0.0019))
+    settle_pending_links(editor, inc, reach=0.0015)
+    assert pairs_of(model) == [pair(inc, 0)]  # the first link went with the dead lip
+    assert inc.pending_links == [(0.0098, 0.0017)]
+    settle_pending_links(editor, inc, reach=np.inf)
+    editor.finish()
+    assert inc.pending_links == []
+    assert pairs_of(model) == sorted([pair(inc, 0), pair(inc, 2)])
+    assert sorted(model.link_force) == pytest.approx(sorted([SIGMA_T * 0.0019, SIGMA_T * 0.0017]))
+
+
+def test_pending_links_wait_while_the_incision_has_no_live_pair():
+    model, editor = patch()
+    inc = straight_incision(model)
+    editor.begin()
+    editor.delete_nodes(inc.right)
+    inc.pending_links = [(0.005, 0.002)]
+    settle_pending_links(editor, inc, reach=np.inf)
+    editor.finish()
+    assert inc.pending_links == [(0.005, 0.002)] and model.link_count == 0
+
+
+# ----------------------------------------------------------------------------- carry_links
+
+def linked_then_cut(model, editor, links, deleted):
+    """Make ``links`` (node pairs), then delete nodes ``deleted`` in a second edit: its report."""
+    editor.begin()
+    editor.make_links(links, [SPACING] * len(links))
+    editor.finish()
+    editor.begin()
+    editor.delete_nodes(deleted)
+    return editor.finish()
+
+
+def test_an_orphaned_link_is_carried_to_the_nearest_candidate_on_the_deleted_nodes_side():
+    """A link from (0, 4.29) mm above the incision to (-1, -0.86) mm below it; the lower node
+    deleted. Of the candidates (0, 0.86) mm above (1.98 mm from it), (-3, -0.86) below (2 mm)
+    and (-4, -2.57) below (3.46 mm) the link goes to (-3, -0.86): the nearest on the deleted
+    node's side, not the nearest of all. Force and smoothing kept."""
+    model, editor = patch()
+    inc = straight_incision(model)
+    keep, gone = node_at(model, 0, 2 * ROWS[1] - ROWS[0]), node_at(model, -1, -ROWS[0])
+    editor.begin()
+    editor.make_links([(keep, gone)], [SPACING])
+    editor.finish()
+    force, smoothing = model.link_force[0], model.link_smoothing[0]
+    editor.begin()
+    editor.delete_nodes([gone])
+    report = editor.finish()
+    assert [e[:2] for e in report.orphaned_links] == [(keep, gone)]
+    above, below, far_below = node_at(model, 0, ROWS[0]), node_at(model, -3, -ROWS[0]), node_at(model, -4, -ROWS[1])
+    x = model.points
+    d = np.linalg.norm(x[[above, below, far_below]] - x[gone], axis=1)
+    assert d[0] < d[1] < d[2]
+    lost = carry_links(editor, inc, report, [above, below, far_below], reach=0.004)
+    assert lost == 0 and pairs_of(model) == [tuple(sorted((keep, below)))]
+    assert model.link_force[0] == pytest.approx(force) and model.link_smoothing[0] == pytest.approx(smoothing)
+
+
+def test_without_an_incision_a_link_goes_to_the_nearest_candidate_on_any_side():
+    model, editor = patch()
+    keep, gone = node_at(model, 0, 2 * ROWS[1] - ROWS[0]), node_at(model, -1, -ROWS[0])
+    report = linked_then_cut(model, editor, [(keep, gone)], [gone])
+    above, below = node_at(model, 0, ROWS[0]), node_at(model, -3, -ROWS[0])
+    assert carry_links(editor, None, report, [above, below], reach=0.004) == 0
+    assert pairs_of(model) == [tuple(sorted((keep, above)))]
+
+
+def test_a_severed_link_is_carried_to_a_lip_on_each_side():
+    """A link across the incision whose two nodes one edit deletes, (4, 0.86) and (3, -0.86) mm,
+    goes to the lips nearest them on their own sides, (3, 2.57) and (2, -2.57) mm; a link between
+    (-4, 0.86) and (-2, 0.86) mm, both above, whose nodes both map to the lip (-1, 2.57) mm, is
+    lost (counted)."""
+    model, editor = patch()
+    inc = straight_incision(model)
+    across = (node_at(model, 4, ROWS[0]), node_at(model, 3, -ROWS[0]))
+    one_side = (node_at(model, -4, ROWS[0]), node_at(model, -2, ROWS[0]))
+    report = linked_then_cut(model, editor, [across, one_side], list(across + one_side))
+    assert len(report.severed_links) == 2
+    lost = carry_links(editor, inc, report, inc.left + inc.right, reach=0.004)
+    assert lost == 1
+    assert pairs_of(model) == [tuple(sorted((node_at(model, 3, ROWS[1]), node_at(model, 2, -ROWS[1]))))]
+
+
+def test_a_link_is_lost_when_nothing_is_left_within_reach():
+    model, editor = patch()
+    inc = straight_incision(model)
+    keep, gone = node_at(model, 0, 2 * ROWS[1] - ROWS[0]), node_at(model, -1, -ROWS[0])
+    report = linked_then_cut(model, editor, [(keep, gone)], [gone])
+    far = node_at(model, 0, -0.006)
+    assert carry_links(editor, inc, report, [far], reach=0.002) == 1
+    assert carry_links(editor, inc, report, [], reach=1.0) == 1
+    assert carry_links(editor, inc, report, [keep], reach=1.0) == 1  # the surviving node is no taker
+    assert model.link_count == 0
+
+
+# ----------------------------------------------------------------------------- a whole cut
+
+def cut_between_rows(step: float, radius: float):
+    """A 12 mm cut between two rows of a 20 mm patch (the rows 0.83 mm either side of the line:
+    a tool of 1 mm radius deletes them, one of 0.6 mm does not), extended every ``step`` [m];
+    returns (model, sim, y)."""
+    model = TissueModel.from_patch((0.02, 0.02), SPACING, pinned="border", material=MATERIAL)
+    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE, cutting=CutSettings())
+    y = between_rows(model)
     cutter = sim.cutter
     cutter.start_incision(sim, [-0.006, y, 0.0], [0, 0, 1], radius)
     for xk in np.linspace(-0.006, 0.006, int(round(0.012 / step)) + 1)[1:]:
@@ -187,20 +285,22 @@ def cut_between_rows(step: float, radius: float):
 @pytest.mark.parametrize("radius", [0.0006, 0.001])
 @pytest.mark.parametrize("step", [0.0003, 0.003])
 def test_every_spring_the_cut_separates_leaves_its_link_whatever_the_event_interval(step, radius):
-    """SPEC section 1, with links kept alive: each spring of the uncut patch that crosses the
-    cut line inside the swept band leaves a link of sigma_r t L0, carried to the lips if the
-    capsule took its nodes (the 1 mm tool deletes both rows beside the line: every link is
-    carried). Counted independently on the uncut patch (springs with a node on either side of
-    the line, crossing it between the cut's ends or within a tool radius beyond them), the
-    total link force is theirs, with events 0.3 mm or 3 mm apart; every link spans the line."""
+    """SPEC section 1: each spring of the uncut patch that crosses the cut line between the
+    cut's ends (counted here) leaves one link of sigma_r t L0, with events 0.3 mm or 3 mm apart;
+    none is lost and every link spans the line. With the 0.6 mm tool both rows beside the line
+    survive and each link joins its spring's own nodes; with the 1 mm tool they are swept and
+    each link joins the lip pair of the station nearest where its spring crossed."""
     model, sim, y = cut_between_rows(step, radius)
     uncut = TissueModel.from_patch((0.02, 0.02), SPACING, pinned="border", material=MATERIAL)
-    p = uncut.points[uncut.springs]
-    lateral = (p[:, 0, 1] - y) * (p[:, 1, 1] - y)
-    at = p[:, 0, 0] + (y - p[:, 0, 1]) / np.where(lateral < 0, p[:, 1, 1] - p[:, 0, 1], 1.0) * (p[:, 1, 0] - p[:, 0, 0])
-    crossing = (lateral < 0) & (np.abs(at) <= 0.006 + radius)
-    expected = 2e4 * 0.1 * 1e-3 * uncut.rest_lengths[crossing].sum()
-    assert model.link_force.sum() == pytest.approx(expected, rel=1e-9)
-    assert sim.cutter.totals["lost_links"] == 0 and model.link_count == crossing.sum()
+    rows, at = crossing_springs(uncut, y, -0.006, 0.006)
+    assert model.link_force.sum() == pytest.approx(SIGMA_T * uncut.rest_lengths[rows].sum(), rel=1e-9)
+    assert sim.cutter.totals["lost_links"] == 0 and model.link_count == len(rows)
     x = sim.positions
     assert np.all((x[model.links[:, 0], 1] - y) * (x[model.links[:, 1], 1] - y) < 0)
+    inc = sim.cutter.incisions[0]
+    if radius < 0.0008:
+        assert pairs_of(model) == sorted(tuple(sorted(uncut.springs[r])) for r in rows)
+    else:
+        u_cross = at + 0.006
+        nearest = np.argmin(np.abs(u_cross[:, None] - np.array(inc.station_u)[None]), axis=1)
+        assert pairs_of(model) == sorted(tuple(sorted((inc.left[k], inc.right[k]))) for k in nearest)
