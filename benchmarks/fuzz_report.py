@@ -11,8 +11,8 @@ import numpy as np
 
 from warp_cut.verify.validity import FOLD_CHECKS
 
-WOUND_WRONG = "tri_flipped_new"
-"""The check of triangles wound against the surface when the cut made them."""
+WOUND_WRONG = "tri_against_rest"
+"""The check of triangles wound against the surface in the rest shape (where the cut decides)."""
 
 ROOT = str(Path(__file__).resolve().parent.parent) + "/"
 """The repository root, stripped from file names in tracebacks."""
@@ -146,7 +146,9 @@ def _violations(rows) -> list[str]:
     out = ["Checks named tri_flipped_cut / tri_flipped_tissue count triangles made by an earlier edit / "
            "of the original mesh that the motion turned over (the tool pushes the nodes inside it "
            "out radially, lips included, and a mass-spring sheet has no resistance to folding); "
-           "tri_flipped_new counts triangles wound against the surface when the edit made them.", "",
+           "tri_flipped_new counts triangles an edit made inside tissue the tool had folded (their "
+           "current positions come from the folded tissue's); tri_against_rest counts triangles "
+           "wound against the surface in the rest shape, where the cut is decided.", "",
            "| check | strokes | checks failed | first message | reproducer |", "|---|---|---|---|---|"]
     for name, n in strokes.most_common():
         msg, rep = example[name]
@@ -210,7 +212,7 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
              "Coverage: fraction of the stroke's ideal in-skin trace at which wound-border edges pass "
              "within 0.5 spacing + 0.25 tool radius on both sides (parameter plane, rest positions; "
              "samples over an opening earlier strokes made are left out, a stroke whose whole trace is over one "
-             "has none; see warp_cut/verify/stroke_quality.py). Holes: `cutter.unfilled_holes` after the tool left. "
+             "has none; see warp_cut/verify/stroke_quality.py). Holes: border loops a stroke added beyond one per incision, counted on the mesh after the tool left. "
              "Split: the stroke started more than one incision. Latency: host time of each cut event "
              "(`sim.cutter.latency_ms`, all stages) on the machine that ran the report; other load on it "
              "inflates the tail.", "", "## Totals", ""]

@@ -27,10 +27,11 @@ import warp_cut as wc
 from warp_cut.mesh import surfaces as S
 from warp_cut.sim import strokes as K
 from warp_cut.verify.stroke_check import run_stroke
+from warp_cut.verify.validity import FOLD_CHECKS
 
 KINDS = ("flat", "rotated", "delaunay", "dome", "cylinder", "saddle")
 EXAMPLES = 10
-FLIPS = ("tri_flipped_new", "tri_flipped_cut", "tri_flipped_tissue")
+FLIPS = FOLD_CHECKS
 
 
 @st.composite

@@ -28,10 +28,11 @@ from ..sim.bending import hinges_of
 
 __all__ = ["surface_problems", "cut_problems", "flipped_triangles", "FOLD_CHECKS"]
 
-FOLD_CHECKS = ("tri_flipped_cut", "tri_flipped_tissue")
-"""Checks that report triangles turned over by the motion after they were made (a mass-spring
+FOLD_CHECKS = ("tri_flipped_new", "tri_flipped_cut", "tri_flipped_tissue")
+"""Checks that report triangles turned over by the motion where the nodes are now (a mass-spring
 sheet has no resistance to folding: a triangle pushed across its neighbours by the tool stays
-folded), not a wrong edit; reported apart from the invariants."""
+folded, and one made inside such tissue takes its current shape from it), not a wrong edit;
+reported apart from the invariants. A wrong edit is ``tri_against_rest``."""
 
 
 def _device_problems(sim) -> list[str]:
