@@ -212,7 +212,8 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
              "Coverage: fraction of the stroke's ideal in-skin trace at which wound-border edges pass "
              "within 0.5 spacing + 0.25 tool radius on both sides (parameter plane, rest positions; "
              "samples over an opening earlier strokes made are left out, a stroke whose whole trace is over one "
-             "has none; see warp_cut/verify/stroke_quality.py). Holes: border loops a stroke added beyond one per incision, counted on the mesh after the tool left. "
+             "has none; see warp_cut/verify/stroke_quality.py). Holes: border loops a stroke added "
+             "beyond one per incision, counted on the mesh after the tool left. "
              "Split: the stroke started more than one incision. Latency: host time of each cut event "
              "(`sim.cutter.latency_ms`, all stages) on the machine that ran the report; other load on it "
              "inflates the tail.", "", "## Totals", ""]
