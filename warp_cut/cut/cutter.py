@@ -289,6 +289,9 @@ class Cutter:
         point = self._material(sim, crossing, tool)
         if point is None or np.linalg.norm(point.rest - inc.path[-1]) < MIN_ADVANCE * self.spacing:
             return  # over an opening, or the blade has not moved on enough: wait
+        if inc.turns_back(point.rest):  # a tool lowered with its axis tilted, now travelling
+            inc.turn_back()
+            inc.starts_on_tissue = self._rest_point_on_tissue(inc.path[0])
         if inc.retraces(point.rest, inc.sweep_radius):
             return  # back over what is cut (a bouncing skin under a tilted blade)
         t1 = time.perf_counter()
@@ -322,7 +325,7 @@ class Cutter:
         editor = self.editor
         first = not inc.station_u and inc.tip_node < 0
         unopened = inc.last_pair(self.model.active) < 0  # until a lip pair stands, cut from the start again
-        u_from = 0.0 if inc.cut_point is None or unopened else float(inc.project(inc.cut_point[None])[0][0])
+        u_from = inc.resume_u if inc.cut_point is None or unopened else float(inc.project(inc.cut_point[None])[0][0])
         if upto - u_from < MIN_ADVANCE * self.spacing:
             return False
         u = np.linspace(u_from, upto, max(9, int(np.ceil((upto - u_from) / (0.1 * self.spacing))) + 1))

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..mesh.geometry import cross3
 from .bezier import BezierChain, fit_chain
 
@@ -144,6 +145,10 @@ class Incision:
         start node, it opens into that wound (set by the Cutter)."""
         self.reached_border = False
         """True once the slit has run into an opening or the tissue's edge (it ends there open)."""
+        self.resume_u = 0.0
+        """Arc length [m] where the slit's newest run begins: past an opening it crossed (an
+        earlier wound), the slit goes on from that opening's border; stations and lip pairs
+        before it belong to the slit short of the opening."""
 
     @property
     def end_node(self) -> int:
@@ -175,11 +180,45 @@ class Incision:
         self._normal_array = np.vstack([self._normal_array, self.normals[-1]])
         self.contact_path.append(point if contact_point is None else np.asarray(contact_point, np.float64))
         self.contact_normals.append(self.normals[-1] if contact_normal is None else _unit(contact_normal))
+        self._set_curve()
+        return True
+
+    def _set_curve(self) -> None:
+        """Refit the curve to the path and sample it densely (``point_at`` interpolates those)."""
         self.curve = self._refit()
         u = np.linspace(0.0, self.curve.segment_count, _SAMPLES_PER_SEGMENT * self.curve.segment_count + 1)
         self._poly = self.curve.evaluate(u)
         self._cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self._poly, axis=0), axis=1))])
-        return True
+
+    @property
+    def uncut(self) -> bool:
+        """True while nothing of the incision is cut yet (no event has made its slit)."""
+        return self.cut_point is None and not self.station_u and self.tip_node < 0 and self.start_node < 0
+
+    def turns_back(self, point) -> bool:
+        """True if ``point`` [m] (rest) lies nearer the path's start than its end while nothing is
+        cut: the crossing came back along the path (a tool lowered straight down with its axis
+        tilted sweeps the crossing backwards as it goes in, then forwards as it travels)."""
+        point = np.asarray(point, dtype=np.float64)
+        return (self.uncut and len(self.path) >= 2
+                and np.linalg.norm(point - self.path[0]) < np.linalg.norm(point - self.path[-1]))
+
+    def turn_back(self) -> None:
+        """Reverse the path while nothing is cut (``uncut``): the incision then starts where the
+        crossing reached farthest back and runs on the way the blade now travels.
+
+        Raises:
+            InputError: Some of the incision is cut already.
+        """
+        if not self.uncut:
+            raise InputError("an incision can only turn back before any of it is cut")
+        for name in ("path", "normals", "contact_path", "contact_normals"):
+            setattr(self, name, getattr(self, name)[::-1])
+        self._normal_array = np.array(self.normals)
+        self._path_chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.array(self.path), axis=0),
+                                                                         axis=1))])
+        self._frozen, self._tail_start = np.zeros((0, 4, 3)), 0
+        self._set_curve()
 
     def retraces(self, point, radius: float) -> bool:
         """True if ``point`` [m] lies within ``radius`` [m] (in the skin's tangent plane) of the
@@ -263,8 +302,9 @@ class Incision:
 
     # ----------------------------------------------------------------- stations
     def next_stations(self, upto: float) -> list[float]:
-        """Arc lengths [m] of the stations after the last one, every ``spacing``, up to ``upto``."""
-        last = self.station_u[-1] if self.station_u else 0.0
+        """Arc lengths [m] of the stations after the last one (or after ``resume_u``), every
+        ``spacing``, up to ``upto``."""
+        last = self.station_u[-1] if self.station_u and self.station_u[-1] >= self.resume_u else self.resume_u
         count = int(np.floor((upto - last) / self.spacing + 1e-9))
         return [last + self.spacing * (k + 1) for k in range(max(0, count))]
 
@@ -300,8 +340,10 @@ class Incision:
         return set(nodes[u >= self.station_u[k]].tolist())
 
     def last_pair(self, active: np.ndarray) -> int:
-        """Index of the newest station whose two lip nodes live, or -1."""
+        """Index of the newest station (from ``resume_u`` on) whose two lip nodes live, or -1."""
         for k in range(len(self.station_u) - 1, -1, -1):
+            if self.station_u[k] < self.resume_u:
+                return -1
             a, b = self.left[k], self.right[k]
             if a >= 0 and b >= 0 and active[a] and active[b]:
                 return k

@@ -106,6 +106,8 @@ class _Layout:
     """Fixed outline edges the band cuts across (the region must grow across them)."""
     stations: list
     """Arc lengths [m] of the band's new stations (``BandPoint.station`` indexes them)."""
+    resumed_at: float | None = None
+    """Where the band's last run begins at an opening's border [m] (``SlitBand.resumed_at``)."""
 
 
 @dataclass(frozen=True)
@@ -244,7 +246,7 @@ def _lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: Region
     cut_across = {e for e in fixed if e not in kept and not {*e} & region.deleted}
     turns = {b: (where[b], where[a], where[c]) for loop in loops
              for a, b, c in zip(loop[-1:] + loop[:-1], loop, loop[1:] + loop[:1])}
-    return _Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations)
+    return _Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations, band.resumed_at)
 
 
 def _distinct(ring: np.ndarray) -> np.ndarray:
@@ -415,6 +417,8 @@ def _record(inc: Incision, layout: _Layout, node_of: list, gone: list) -> PieceC
         if left >= 0 or right >= 0:
             inc.add_station(u, left, right)
             cut.stations.append((u, left, right))
+    if layout.resumed_at is not None:
+        inc.resume_u = max(inc.resume_u, layout.resumed_at)
     cut.tip = lips.get((TIP, 0), -1)
     cut.start = lips.get((START, 0), -1)
     inc.tip_node = cut.tip

@@ -59,6 +59,9 @@ class SlitBand:
 
     runs: list = field(default_factory=list)
     stations: list = field(default_factory=list)
+    resumed_at: float | None = None
+    """Arc length [m] where the last run begins at an opening's border (None: it goes on from
+    the slit cut before or the start)."""
 
 
 def _runs(on_tissue: np.ndarray) -> list[tuple[int, int]]:
@@ -231,6 +234,7 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
             left.append(_point(inc, 0.0, 0, START, -1 if start is None else start))
             lo = 0.0
         else:  # from an opening
+            band.resumed_at = ua
             back = _junction(inc, ua, -1, 3.0 * extension, borders, points)
             if back is None:
                 left.append(_point(inc, ua - extension, 1, EXTENSION))
