@@ -1,0 +1,149 @@
+"""warp_cut/cut/islands.py: the pieces of skin a cut frees.
+
+Compared against: the connected pieces of hand-built meshes (a sheet with separate small
+pieces beside it, a piece held by a single node, a pinned piece, two pieces of equal size),
+found here with a union-find over triangles sharing a node.
+"""
+
+import numpy as np
+import pytest
+
+from warp_cut import TissueModel
+from warp_cut.cut.islands import islands_from
+from warp_cut.cut.topology import TopologyEditor
+
+
+def grid(n: int, origin=(0.0, 0.0), cell: float = 1e-3):
+    """An n x n node grid of ``cell`` squares at ``origin`` [m], split on one diagonal:
+    (points (n^2, 3), triangles (2 (n-1)^2, 3)), counter-clockwise from +z."""
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2) * cell + origin
+    tri = []
+    for r in range(n - 1):
+        for c in range(n - 1):
+            a, b, d, e = r * n + c, r * n + c + 1, (r + 1) * n + c, (r + 1) * n + c + 1
+            tri += [[a, b, e], [a, e, d]]
+    return np.column_stack([g, np.zeros(len(g))]), np.array(tri)
+
+
+def sheet_with_pieces(pieces, n: int = 8, pinned=None, **kwargs):
+    """A sheet of n x n nodes and, to its right, separate square pieces of ``pieces`` nodes a
+    side: (model, triangle rows of each part, sheet first)."""
+    points, tri = grid(n)
+    parts = [list(range(len(tri)))]
+    for k, side in enumerate(pieces):
+        p, t = grid(side, origin=(n * 1e-3 + k * 5e-3, 0.0))
+        parts.append(list(range(len(tri), len(tri) + len(t))))
+        tri = np.concatenate([tri, t + len(points)])
+        points = np.concatenate([points, p])
+    model = TissueModel.from_triangles(points, tri, pinned=pinned or "none", **kwargs)
+    return model, parts
+
+
+def pieces_by_shared_nodes(model) -> list[set[int]]:
+    """The mesh's pieces (triangles joined through a shared node), by union-find."""
+    corners = model.triangle_table.column("corners")
+    live = [t for t in range(len(corners)) if model.triangle_table.alive[t]]
+    parent = {t: t for t in live}
+
+    def root(t):
+        while parent[t] != t:
+            parent[t] = parent[parent[t]]
+            t = parent[t]
+        return t
+
+    first_at: dict[int, int] = {}
+    for t in live:
+        for v in corners[t].tolist():
+            if v in first_at:
+                parent[root(t)] = root(first_at[v])
+            else:
+                first_at[v] = t
+    out: dict[int, set] = {}
+    for t in live:
+        out.setdefault(root(t), set()).add(t)
+    return list(out.values())
+
+
+def test_a_piece_cut_free_is_found_and_the_sheet_is_not():
+    """Seeds in the sheet and in a separate 2-triangle piece: the piece is the one island,
+    exactly the union-find's piece, and the sheet is left."""
+    model, parts = sheet_with_pieces([2])
+    found = islands_from(model, [parts[0][5], parts[1][0]])
+    assert found == [set(parts[1])]
+    assert set(parts[1]) in pieces_by_shared_nodes(model)
+
+
+def test_several_free_pieces_are_each_found():
+    model, parts = sheet_with_pieces([2, 3])
+    found = islands_from(model, [parts[0][0], parts[1][1], parts[2][0]])
+    assert sorted(map(sorted, found)) == sorted([sorted(parts[1]), sorted(parts[2])])
+
+
+def test_seeds_all_in_one_piece_free_nothing():
+    model, parts = sheet_with_pieces([2])
+    assert islands_from(model, parts[0][:4]) == []
+    assert islands_from(model, parts[0][:1]) == []
+
+
+@pytest.mark.xfail(strict=True, raises=ValueError,
+                   reason="islands_from with no live seed takes max() of no pieces: ValueError instead of []")
+def test_no_live_seed_frees_nothing():
+    model, _ = sheet_with_pieces([2])
+    assert islands_from(model, []) == []
+
+
+def test_a_pinned_piece_is_held_in_place():
+    """The small piece holds a pinned node: it has come apart but is not free."""
+    points, _ = grid(8)
+    model, parts = sheet_with_pieces([2], pinned=[len(points)])
+    assert model.pinned[len(points)]
+    assert islands_from(model, [parts[0][0], parts[1][0]]) == []
+
+
+def test_a_piece_held_by_a_single_node_is_not_an_island():
+    """A square touching the sheet at one corner node only (a bow-tie) is held by it."""
+    points, tri = grid(4)
+    extra = np.array([[4e-3, 3e-3, 0.0], [4e-3, 4e-3, 0.0], [3e-3, 4e-3, 0.0]])  # beyond node 15 (3, 3) mm
+    corner = 15
+    assert points[corner] == pytest.approx([3e-3, 3e-3, 0.0])
+    n = len(points)
+    tri = np.concatenate([tri, [[corner, n, n + 1], [corner, n + 1, n + 2]]])
+    model = TissueModel.from_triangles(np.concatenate([points, extra]), tri, pinned="none")
+    assert islands_from(model, [0, len(tri) - 1]) == []
+    assert len(pieces_by_shared_nodes(model)) == 1
+
+
+def test_dead_seeds_are_ignored():
+    """A seed triangle the edit deleted starts no piece."""
+    model, parts = sheet_with_pieces([2])
+    editor = TopologyEditor(model)
+    editor.begin()
+    editor.delete_triangles([parts[1][0]])
+    editor.finish()
+    live_piece = {t for t in parts[1] if model.triangle_table.alive[t]}
+    assert islands_from(model, [parts[0][0], parts[1][0]]) == []  # only the sheet's seed is alive
+    assert islands_from(model, [parts[0][0], *parts[1]]) == [live_piece]
+
+
+def test_of_two_equal_pieces_one_is_the_tissue():
+    """Two separate 3 x 3 pieces and nothing else: one of them (the one still growing when the
+    other is done) is the tissue, the other the one island. With the default limit (half the
+    live triangles) the search stops before either is done: no island."""
+    a, ta = grid(3)
+    b, tb = grid(3, origin=(5e-3, 0.0))
+    model = TissueModel.from_triangles(np.concatenate([a, b]), np.concatenate([ta, tb + len(a)]), pinned="none")
+    first, second = set(range(len(ta))), set(range(len(ta), 2 * len(ta)))
+    assert sorted(map(sorted, pieces_by_shared_nodes(model))) == [sorted(first), sorted(second)]
+    found = islands_from(model, [0, len(ta)], limit=100)
+    assert found in ([first], [second])
+    assert islands_from(model, [0, len(ta)]) == []
+
+
+def test_the_search_stops_at_the_limit_and_costs_the_small_pieces_not_the_sheet():
+    """A 30 x 30 node sheet (1682 triangles) with a 2-triangle piece: with a limit of 100
+    triangles searched the piece is still found (the sheet is only grown while the piece is);
+    with a limit of 1 nothing is (the search stopped)."""
+    model, parts = sheet_with_pieces([2], n=30)
+    assert len(parts[0]) == 1682
+    assert islands_from(model, [parts[0][800], parts[1][0]], limit=100) == [set(parts[1])]
+    assert islands_from(model, [parts[0][800], parts[1][0]], limit=1) == []
