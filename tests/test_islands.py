@@ -85,8 +85,6 @@ def test_seeds_all_in_one_piece_free_nothing():
     assert islands_from(model, parts[0][:1]) == []
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError,
-                   reason="islands_from with no live seed takes max() of no pieces: ValueError instead of []")
 def test_no_live_seed_frees_nothing():
     model, _ = sheet_with_pieces([2])
     assert islands_from(model, []) == []

@@ -63,8 +63,6 @@ def test_the_closest_point_is_no_farther_than_any_point_of_the_triangle(triangle
     assert d[0] >= brute - diameter / steps
 
 
-@pytest.mark.xfail(strict=True, reason="closest_on_triangles takes a triangle with collinear corners (zero "
-                                       "normal) for one containing every point: distance 0, coordinates (1, 0, 0)")
 def test_a_degenerate_triangle_is_as_far_as_its_segment():
     """Corners (0,0,0), (1,0,0), (2,0,0) span the segment from x = 0 to 2: the point
     (0.5, 3, 0) is 3 away from it, at (0.5, 0, 0)."""

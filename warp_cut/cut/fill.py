@@ -63,7 +63,8 @@ def fill_region(points: np.ndarray, edges, *, min_angle_deg: float, min_edge: fl
     ``max_points`` points, none making an edge shorter than ``min_edge`` [m].
 
     Raises:
-        InputError: The loops do not bound a region (no triangle left), or cross each other.
+        InputError: The loops do not bound a region (no triangle left), or cross where they
+            cannot be split (loops that cross are split at the crossing and filled by parity).
     """
     points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     edges = _constraint_edges(edges)

@@ -60,6 +60,8 @@ def islands_from(model, seeds, limit: int | None = None) -> list[set[int]]:
         return []
     growing = [k for k, f in enumerate(fronts) if f]
     finished = [k for k, p in enumerate(pieces) if p and k not in growing]
+    if not pieces:  # no live seed: nothing was cut free
+        return []
     if not growing:  # every piece finished: the largest is the tissue
         largest = max(range(len(pieces)), key=lambda k: len(pieces[k]))
         finished = [k for k in finished if k != largest]

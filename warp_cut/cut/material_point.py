@@ -48,13 +48,15 @@ def closest_on_triangles(point: np.ndarray, corners: np.ndarray) -> tuple[np.nda
     to each triangle (m, 3, 3)."""
     a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
     n = cross3(b - a, c - a)
-    nn = np.maximum((n * n).sum(axis=1), 1e-300)
+    nn = (n * n).sum(axis=1)
+    flat = nn <= 1e-24 * np.maximum(((b - a) ** 2).sum(axis=1) * ((c - a) ** 2).sum(axis=1), 1e-300)
+    nn = np.maximum(nn, 1e-300)
     rel = point[None] - a
     foot = point[None] - ((rel * n).sum(axis=1) / nn)[:, None] * n
     lam_b = (cross3(foot - a, c - a) * n).sum(axis=1) / nn
     lam_c = (cross3(b - a, foot - a) * n).sum(axis=1) / nn
     lam = np.stack([1.0 - lam_b - lam_c, lam_b, lam_c], axis=1)
-    inside = (lam >= 0.0).all(axis=1)
+    inside = (lam >= 0.0).all(axis=1) & ~flat  # a triangle with collinear corners is its edges
     best_d = np.where(inside, np.linalg.norm(point[None] - foot, axis=1), np.inf)
     best = np.where(inside[:, None], lam, 0.0)
     for i, j in ((0, 1), (1, 2), (2, 0)):
