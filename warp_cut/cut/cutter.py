@@ -57,6 +57,10 @@ from .wound_links import OriginalSprings, carry_links, link_crossed_springs, set
 
 __all__ = ["Cutter", "STAGES"]
 
+END_TRIES = 4
+"""Tries to cut an ended incision's slit to its end, each a quarter spacing shorter (a fill that
+does not lay the whole slit is refused: ``SlitDoesNotFit``)."""
+
 STAGES = ("locate", "stage2_bezier", "stage1_swept_band", "stage3_fill", "device_update")
 """Names of the timed parts of a cut event (latency in metrics.json)."""
 
@@ -219,7 +223,9 @@ class Cutter:
         if inc is None or len(inc.path) < 2:
             return
         now = time.perf_counter()
-        self._cut(sim, inc, None, inc.length, (now, now, now))  # the tool has gone: up to the end
+        for back in range(END_TRIES):  # the tool has gone: up to the end, or as near it as fits
+            if self._cut(sim, inc, None, inc.length - back * MIN_ADVANCE * self.spacing, (now, now, now)):
+                break
         self.editor.begin()
         settle_pending_links(self.editor, inc, reach=np.inf)
         flips = self._settle_prestressed(sim)

@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import InputError
 from ..mesh.geometry import cross3
 from .bezier import BezierChain, fit_chain
+from .tolerances import FIRST_STATION
 
 __all__ = ["Incision", "polyline_distance"]
 
@@ -302,11 +303,14 @@ class Incision:
 
     # ----------------------------------------------------------------- stations
     def next_stations(self, upto: float) -> list[float]:
-        """Arc lengths [m] of the stations after the last one (or after ``resume_u``), every
-        ``spacing``, up to ``upto``."""
-        last = self.station_u[-1] if self.station_u and self.station_u[-1] >= self.resume_u else self.resume_u
-        count = int(np.floor((upto - last) / self.spacing + 1e-9))
-        return [last + self.spacing * (k + 1) for k in range(max(0, count))]
+        """Arc lengths [m] of the stations after the last one, every ``spacing``, up to ``upto``
+        (the first ``FIRST_STATION`` spacings after the start, or after ``resume_u``)."""
+        if self.station_u and self.station_u[-1] >= self.resume_u:
+            first = self.station_u[-1] + self.spacing
+        else:
+            first = self.resume_u + FIRST_STATION * self.spacing
+        count = int(np.floor((upto - first) / self.spacing + 1e-9)) + 1
+        return [first + self.spacing * k for k in range(max(0, count))]
 
     def add_station(self, u: float, left: int, right: int) -> None:
         """A new station at arc length ``u`` [m] with its lip nodes (-1 for a missing one)."""

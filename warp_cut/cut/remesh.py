@@ -38,8 +38,8 @@ from .classes import NodeClass, SpringClass
 from .fill import Fill, fill_region
 from .incision import Incision
 from .region import Region
-from .slit_band import START, TIP, BandPoint, SlitBand, plan_band
-from .tolerances import CLEARANCE, LAST_STATION, MAX_GROWTH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG, REGION_MARGIN
+from .slit_band import EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand, plan_band
+from .tolerances import CLEARANCE, LAST_STATION, MATCH, MAX_GROWTH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG, REGION_MARGIN
 from .topology import NodePositions, TopologyEditor
 
 __all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece", "clearance", "edge_clearance"]
@@ -155,7 +155,28 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
                 region.sweep([v])
             else:
                 wedges.append(wedge)
+    _check_slit(layout, band)
     return _apply(editor, inc, region, layout, positions, tool, growth)
+
+
+def _check_slit(layout: _Layout, band: SlitBand) -> None:
+    """The fill lays the whole slit: every lip and the tip the band asks for is a vertex of the
+    tissue's new outline, one each.
+
+    Raises:
+        SlitDoesNotFit: One is missing or doubled (the band and the region's outline met in a
+            sliver the polygon operations cut apart): the next event tries again.
+    """
+    wanted = {(p.station, p.side) for run in band.runs for p in run if p.node < 0 and p.station not in
+              (EXTENSION, JUNCTION)}
+    laid: dict = {}
+    for v in layout.ids:
+        if v < 0 and layout.points[-1 - v].band is not None:
+            key = (layout.points[-1 - v].band.station, layout.points[-1 - v].band.side)
+            laid[key] = laid.get(key, 0) + 1
+    missing = sorted(k for k in wanted if laid.get(k, 0) != 1)
+    if missing:
+        raise SlitDoesNotFit(f"the fill does not lay the slit's points {missing} once each")
 
 
 def _band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, region: Region, first: bool,
@@ -226,7 +247,7 @@ def _lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: Region
               and g.area > (0.01 * inc.spacing) ** 2]
     if not pieces:
         raise SlitDoesNotFit("the band leaves no tissue in its region")
-    table = _VertexTable(model, chart, region, band, grid)
+    table = _VertexTable(model, chart, region, band, MATCH * inc.spacing)
     loops, points = _loops(pieces, table, MERGE * inc.spacing)
     outline = {v for loop in loops for v in loop}
     rim = shapely.union_all([p.boundary for p in pieces])
@@ -310,7 +331,8 @@ def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[i
                     points.append(_NewPoint(hit if isinstance(hit, BandPoint) else None, xy))
                     made[key] = -len(points)
                 ids.append(made[key])
-            loops.append(_merge_near(ids, coords, merge))
+            keep = [k for k in range(len(ids)) if ids[k] != ids[k - 1]]  # two points matched one vertex
+            loops.append(_merge_near([ids[k] for k in keep], coords[keep], merge))
     return [loop for loop in loops if len(loop) >= 3], points
 
 
@@ -365,7 +387,7 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: _Layou
     gone = sorted((region.nodes() | region.deleted) - kept)
     editor.delete_nodes(gone)
     editor.delete_triangles(sorted(region.triangles))
-    made = editor.add_nodes(rest_new) if len(new_rows) else np.zeros(0, np.int64)
+    made = editor.add_nodes(rest_new, NodeClass.GREY) if len(new_rows) else np.zeros(0, np.int64)  # lips: _classify
     node_of = list(ids) + [0] * (len(fill.points) - len(ids))
     for row, node, x in zip(new_rows, made, current_new):
         node_of[row] = int(node)
@@ -377,7 +399,7 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: _Layou
     on_slit = [node_of[k] for k in _inserted_on_slit(layout, inc.slit_nodes)]
     inc.slit_nodes.update(on_slit)
     cut.lips = sorted(set(cut.lips) | set(on_slit))
-    _classify(editor, cut)
+    _classify(editor, cut, inc.slit_nodes)
     return cut
 
 
@@ -431,13 +453,14 @@ def _record(inc: Incision, layout: _Layout, node_of: list, gone: list) -> PieceC
     return cut
 
 
-def _classify(editor: TopologyEditor, cut: PieceCut) -> None:
-    """The slit's new nodes are lips; the nodes joined to a lip are blue (yellow where joined to
-    the tip or start); springs along the slit are lip springs, those joining a lip to another
-    node red, the others the fill made green."""
+def _classify(editor: TopologyEditor, cut: PieceCut, slit: set[int]) -> None:
+    """The slit's new nodes are lips (with those of earlier events, ``slit``: every node the
+    incision put on its slit); the nodes joined to a lip are blue (yellow where joined to the
+    tip or start); springs along the slit are lip springs, those joining a lip to another node
+    red, the others the fill made green."""
     pairs = editor.model.spring_table.column("pairs")
-    lips = set(cut.lips)
-    editor.set_node_class(lips, NodeClass.LIP)
+    editor.set_node_class(set(cut.lips), NodeClass.LIP)
+    lips = set(cut.lips) | set(slit)
     ends = {cut.tip, cut.start} - {-1}
     yellow, blue = set(), set()
     for slot in editor.report.new_springs:

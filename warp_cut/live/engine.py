@@ -514,7 +514,8 @@ class LiveCut:
             return LiveStatus(time=sim.time, realtime_factor=rtf, compute_factor=compute,
                               paused=self.paused, cutting=self.cutting, error=self.error,
                               frame=run.recording.frame, incisions=len(cutter.incisions),
-                              cut_events=cutter.totals["events"], force=np.array(sim.tool_force),
+                              cut_events=cutter.totals["events"] + cutter.totals.get("skipped_events", 0),
+                              force=np.array(sim.tool_force),
                               behind_s=self._clock.behind, generation=self.generation,
                               compute_s=run.recording.compute_time, cpu_s=self._cpu_time)
 
