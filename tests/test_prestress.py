@@ -211,9 +211,12 @@ def test_a_cut_sheet_carries_the_same_tension_in_its_rest_shape(stiffness_model)
 
 def test_a_finished_cut_leaves_no_compressed_spring_between_the_triangles_it_made():
     """An edge's cotangent tension (T/2)(cot a + cot b)|e| is negative where its opposite angles
-    sum above 180 deg: once the incision ends, the cut's own triangles are flipped to Delaunay in
-    the rest shape, and every spring between two of them carries tension (computed here from the
-    rest shape's angles)."""
+    sum above 180 deg: the cut's own triangles are Delaunay in the rest shape (each event's fill
+    is a constrained Delaunay refinement of its region there, and once the incision ends the
+    edges where two events' regions meet are flipped to Delaunay too), so every spring between
+    two of them carries tension (computed here from the rest shape's angles). How many flips
+    that takes depends on where the regions fell (none on this straight cut), so it is not
+    counted."""
     model, sim, _ = quasi_static_cut(PRESTRESS)
     sim.cutter.end_incision(sim)
     table = model.triangle_table
@@ -221,7 +224,7 @@ def test_a_finished_cut_leaves_no_compressed_spring_between_the_triangles_it_mad
     corners = table.column("corners")[made]
     edges, counts = edges_of(corners, return_counts=True)
     inner = edges[counts == 2]
-    assert len(inner) > 20 and sim.cutter.totals["delaunay_flips"] > 0
+    assert len(inner) > 20
     tension = membrane_edge_tensions(model.points, model.triangles, inner, PRESTRESS.membrane_tension)
     assert tension.min() >= -1e-12
     for i, j in inner:  # and the springs carry it: stretched in the rest shape

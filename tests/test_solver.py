@@ -131,11 +131,13 @@ def test_an_edited_simulator_steps_like_one_built_from_the_edited_model(integrat
     tool = Tool([0.0, 3e-4, 0.0005], [0.0, 3e-4, 0.02], 0.001)
     sim.step(5, tool=tool)
     recorded = dict(sim.solver._sequences)
+    version = model.topology_version
     # between two rows of nodes, narrower than the spacing: the springs across are cut
     sim.cutter.start_incision(sim, [-0.006, 1e-3, 0.0], [0, 0, 1], 3e-4)
     sim.cutter.extend_incision(sim, [0.006, 1e-3, 0.0])
     sim.cutter.end_incision(sim)
-    assert len(model.links) and model.topology_version >= 2  # cut, lips made, links made
+    # one event cuts the whole slit, its lips and its links in one edit
+    assert len(model.links) and model.topology_version > version
     if integrator == "semi_implicit":  # nothing recorded again: the same launch objects
         assert all(sim.solver._sequences.get(key) is seq for key, seq in recorded.items())
     fresh = Simulator(model, dt=sim.dt, substeps=sim.substeps, integrator=integrator, device=DEVICE)

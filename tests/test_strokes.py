@@ -176,16 +176,36 @@ def test_coverage_on_a_known_cut(straight_cut, start, length, want, tol):
 def test_coverage_leaves_out_the_trace_over_an_opening(straight_cut):
     """With the skin at the stroke's start given, a trace along the finished cut (over its slit:
     no triangle lies between the lips at rest) has no skin under it (nan); one beside the cut
-    is all over skin and counts as before; one crossing the cut counts its samples over skin
-    only (none of them open)."""
+    is all over skin and counts as before; one along the cut running 4 mm past each of its
+    ends counts only its samples beyond the ends (the 12 mm in the slit, 0.6 of it, are
+    covered without the skin), and none of them is open: past a slit's end both lips meet at
+    its end node.
+
+    One crossing the cut (samples every s / 20 = 0.1 mm, placed 0.05 mm off the lip lines at
+    y = 0.7 +- lip_offset = 0.45, 0.95 mm) leaves out exactly the 5 samples between the lips:
+    its fraction is a count over the 95 others, and it lost at most those 5 covered ones. Of
+    the 95, only those within tol of a lip line can see wound edges on both sides (13 below
+    the slit, 13 above): where a lip line crosses the trace its nearest point lies on the
+    trace, on a side only by the rounding of the lips' rest positions (nanometres: a cut's lip
+    lines are straight to that), so the exact fraction is not asserted."""
     surf, model, border = straight_cut
     wound, tol = wound_edges(model, border), coverage_tolerance(H, 0.001)
     skin = skin_at_rest(model, surf)
     assert np.isnan(coverage(stroke_on(surf, [-0.005, 0.0007], 0.010), surf, model.points, wound, tol, skin))
     beside = stroke_on(surf, [-0.006, 0.0047], 0.012)
     assert coverage(beside, surf, model.points, wound, tol, skin) == coverage(beside, surf, model.points, wound, tol)
-    across = K.Stroke(surf, K.line([0.0, -0.004], np.pi / 2, 0.010), tilt=1.0, radius=0.001, depth=0.002, speed=0.01)
-    assert coverage(across, surf, model.points, wound, tol, skin) == 0.0
+    overhang = stroke_on(surf, [-0.010, 0.0007], 0.020)
+    assert coverage(overhang, surf, model.points, wound, tol) == pytest.approx(0.6, abs=0.01)
+    assert coverage(overhang, surf, model.points, wound, tol, skin) == 0.0
+    across = K.Stroke(surf, K.line([0.0, -0.00405], np.pi / 2, 0.010), tilt=1.0, radius=0.001, depth=0.002, speed=0.01)
+    assert tol == pytest.approx(0.00125)
+    samples, opening = 100, 5  # 10 mm / 0.1 mm; y = 0.5 ... 0.9 mm lie between the lips
+    near = 2 * 13  # within tol = 1.25 mm of a lip line, on skin: y = -0.8 ... 0.4 and 1.0 ... 2.2 mm
+    on_skin = coverage(across, surf, model.points, wound, tol, skin) * (samples - opening)
+    everywhere = coverage(across, surf, model.points, wound, tol) * samples
+    assert on_skin == pytest.approx(round(on_skin), abs=1e-9)  # a count over the 95 samples on skin
+    assert 0 <= round(everywhere) - round(on_skin) <= opening
+    assert round(on_skin) <= near
 
 
 def test_points_over_skin():
