@@ -61,6 +61,13 @@ def _duration(strokes, settle: float) -> float:
     return math.ceil((_poses(strokes)[-1][0] + settle) * 10) / 10
 
 
+def _save(name: str, head: str, tool: ToolSpec, strokes) -> None:
+    """Write scenes/``name``.toml: ``head`` (the scene up to its tool), the tool and its keyframes."""
+    text = f"{head}\n[tool]\nradius = {tool.radius}\nlength = {tool.tool_length}\n\n{_keyframes(strokes)}"
+    (SCENES / f"{name}.toml").write_text(text)
+    print(f"wrote scenes/{name}.toml ({len(strokes)} strokes)")
+
+
 def write_excision() -> None:
     patch = surfaces.flat_grid(0.06, 0.002)
     tool = ToolSpec(radius=0.001, depth=0.003)
@@ -95,14 +102,8 @@ cutting = true
 [cutting]
 interval = 0.0166667     # s, one cut event per rendered frame
 keep_islands = false     # the excised skin is removed (cut.removed_islands)
-
-[tool]
-radius = {tool.radius}
-length = {tool.tool_length}
-
-{_keyframes(strokes)}'''
-    (SCENES / "elliptical_excision.toml").write_text(text)
-    print(f"wrote scenes/elliptical_excision.toml ({len(strokes)} strokes)")
+'''
+    _save("elliptical_excision", text, tool, strokes)
 
 
 def write_forearm_t() -> None:
@@ -128,14 +129,8 @@ pinned = "border"
 [physics]
 cutting = true
 foundation = true
-
-[tool]
-radius = {tool.radius}
-length = {tool.tool_length}
-
-{_keyframes(strokes)}'''
-    (SCENES / "forearm_t_incision.toml").write_text(text)
-    print(f"wrote scenes/forearm_t_incision.toml ({len(strokes)} strokes)")
+'''
+    _save("forearm_t_incision", text, tool, strokes)
 
 
 if __name__ == "__main__":
