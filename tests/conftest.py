@@ -10,11 +10,15 @@ import os
 import numpy as np
 import pytest
 import warp as wp
+from hypothesis import settings
 
 from warp_cut.sim.warp_config import quiet_warp
 
 quiet_warp()
 wp.init()
+
+settings.register_profile("reproducible", derandomize=True, database=None)
+settings.load_profile("reproducible")  # the property tests draw the same examples on every machine and run
 
 DEVICE = os.environ.get("WARP_CUT_TEST_DEVICE", "cpu")
 """The Warp device the tests run on (set by ``pytest_configure`` before tests import it)."""

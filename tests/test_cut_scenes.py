@@ -15,7 +15,7 @@ from test_cutting import assert_open_slit
 
 from warp_cut.cut.classes import NodeClass
 from warp_cut.cut.incision import polyline_distance
-from warp_cut.cut.tolerances import MIN_ADVANCE
+from warp_cut.cut.tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE
 from warp_cut.runner import run_scene
 from warp_cut.scene import load_scene
 
@@ -116,15 +116,16 @@ def events_while_drawing(travel, speed, interval, spacing, radius, tilt_deg):
     An event extends the incision only once the blade has advanced ``MIN_ADVANCE`` spacings
     along the rest curve since the last one: every k = ceil(MIN_ADVANCE s / (v interval)) due
     events. The slit's tip stays r / sin(tilt) + s / 4 behind the blade while it cuts
-    (``Cutter._behind_the_blade``), and an event cuts only a piece of at least MIN_ADVANCE s:
-    the extensions before the blade is that far into the skin cut nothing; when the blade
-    leaves, one more event cuts the slit to its end. So the events number
-    (travel - behind - MIN_ADVANCE s) / (k v interval) + 1, give or take one at each end (the
-    phase of the events against the drawing's start and end)."""
+    (``Cutter._behind_the_blade``), and from its start the slit opens once it holds its first
+    lip pair: its first station ``FIRST_STATION`` s from the start, ``LAST_STATION`` s behind
+    the tip. So the first event that cuts comes once the blade has drawn behind + (FIRST_STATION
+    + LAST_STATION) s, then one every k due events; when the blade leaves, one more cuts the
+    slit to its end: (travel - behind - (FIRST_STATION + LAST_STATION) s) / (k v interval) + 1,
+    give or take one at each end (the phase of the events against the drawing's start and end)."""
     step = MIN_ADVANCE * spacing
     k = math.ceil(step / (speed * interval) - 1e-9)
     behind = radius / math.sin(math.radians(tilt_deg)) + 0.25 * spacing
-    return (travel - behind - step) / (k * speed * interval) + 1.0
+    return (travel - behind - (FIRST_STATION + LAST_STATION) * spacing) / (k * speed * interval) + 1.0
 
 
 @pytest.mark.parametrize("interval", [
@@ -135,8 +136,9 @@ def test_cut_events_follow_the_interval(interval):
     """``cutting.interval``: the events of a 2 cm stroke drawn at 2 cm/s (1 s) are those
     ``events_while_drawing`` counts: one per interval where the blade moves MIN_ADVANCE
     spacings (0.5 mm) in one (50 ms: 1 mm), one per two where it needs two (1/60 s: 1/3 mm),
-    less those before the slit's tip is a piece behind the blade (r / sin 60 deg + s / 4), plus
-    the one that cuts to the end when the blade leaves; +- 2 for the phase at both ends. Going
+    less those before the slit behind the blade (r / sin 60 deg + s / 4) holds its first lip
+    pair, plus the one that cuts to the end when the blade leaves; +- 2 for the phase at both
+    ends. Going
     in and out along its axis the blade does not move the crossing."""
     scene, start, end = short_stroke(0.02, [f"cutting.interval={interval}"])
     m = run_scene(scene).metrics

@@ -23,17 +23,18 @@ def example():
 
 def test_runs_a_few_hundred_ticks_as_a_script():
     # The script goes in for 200 ticks, then draws at 2 cm/s. The slit's tip stays
-    # r / sin 60 deg + s / 4 = 1.65 mm behind the blade while it cuts, and an event cuts a
-    # piece of at least MIN_ADVANCE s = 0.5 mm: the first edit comes once the blade has drawn
-    # 2.15 mm (tick 308), at the next event that extends the incision (every other one of an
-    # event every 1/60 s, the blade drawing 1/3 mm between two: by tick 342). --max-lag 1:
-    # each edit lands two ticks after its event, however long the worker takes on a loaded
-    # machine, so the edits of these 400 ticks arrive within them every run
-    done = subprocess.run([sys.executable, str(EXAMPLE), "--ticks", "400", "--print-every", "100",
+    # r / sin 60 deg + s / 4 = 1.65 mm behind the blade while it cuts, and from its start the
+    # slit opens once it holds its first lip pair (FIRST_STATION + LAST_STATION = 1.15 spacings
+    # = 2.3 mm): the first edit comes once the blade has drawn 3.95 mm (tick 398), at the next
+    # event that extends the incision (every other one of an event every 1/60 s, the blade
+    # drawing 1/3 mm between two: by tick 432). --max-lag 1: each edit lands two ticks after
+    # its event, however long the worker takes on a loaded machine, so the edits of these 500
+    # ticks arrive within them every run
+    done = subprocess.run([sys.executable, str(EXAMPLE), "--ticks", "500", "--print-every", "100",
                            "--max-lag", "1"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     out = done.stdout
-    assert "summary: 400 ticks" in out and "missed deadlines" in out and "step per tick: p50" in out
+    assert "summary: 500 ticks" in out and "missed deadlines" in out and "step per tick: p50" in out
     assert "tick 100: t = 0.102 s, force" in out  # one untimed tick first, then 0, 1, ...
     assert "cutting in a worker process" in out
     edits = [line for line in out.splitlines() if "topology edits" in line]

@@ -15,6 +15,7 @@ from conftest import DEVICE
 from warp_cut import Material, Simulator, TissueModel
 from warp_cut.cut.incision import Incision
 from warp_cut.cut.settings import CutSettings
+from warp_cut.cut.tolerances import LINK_REACH
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.cut.wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
@@ -122,8 +123,8 @@ def test_every_spring_the_piece_crosses_with_both_nodes_alive_is_linked_between_
 
 def test_a_crossed_spring_whose_node_is_gone_links_the_lip_pair_of_the_station_nearest_its_crossing():
     """The two rows beside the line deleted (as the band does): each crossed spring's link goes
-    to the lip pair of the station nearest where it crossed, if within 0.75 spacing along the
-    curve; the others wait, each with its crossing's arc length and rest length, and go to the
+    to the lip pair of the station nearest where it crossed, if within half a spacing along the
+    curve (``LINK_REACH``); the others wait, each with its crossing's arc length and rest length, and go to the
     nearest pair once settled without a reach (the incision's end)."""
     model, editor = patch()
     springs = OriginalSprings(model)
@@ -137,7 +138,7 @@ def test_a_crossed_spring_whose_node_is_gone_links_the_lip_pair_of_the_station_n
     u_cross = at + 0.005
     station_u = np.array(inc.station_u)
     nearest = np.argmin(np.abs(u_cross[:, None] - station_u[None]), axis=1)
-    near_enough = np.abs(u_cross - station_u[nearest]) <= 0.75 * SPACING
+    near_enough = np.abs(u_cross - station_u[nearest]) <= LINK_REACH * SPACING
     expected = sorted(tuple(sorted((inc.left[k], inc.right[k]))) for k in nearest[near_enough])
     assert near_enough.any() and not near_enough.all()
     assert pairs_of(model) == expected

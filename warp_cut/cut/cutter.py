@@ -51,7 +51,7 @@ from .region import distance_to_segments
 from .remesh import PieceCut, SlitDoesNotFit, clearance, cut_piece, edge_clearance
 from .settings import CutSettings
 from .surface import Crossing
-from .tolerances import MIN_ADVANCE, VOID_REACH
+from .tolerances import LAST_STATION, MIN_ADVANCE, VOID_REACH
 from .topology import NodePositions, TopologyEditor
 from .wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
@@ -334,6 +334,9 @@ class Cutter:
         u_from = inc.resume_u if inc.cut_point is None or unopened else float(inc.project(inc.cut_point[None])[0][0])
         if upto - u_from < MIN_ADVANCE * self.spacing:
             return False
+        if tool is not None and unopened and inc.starts_on_tissue and inc.resume_u == 0.0 \
+                and not inc.next_stations(upto - LAST_STATION * self.spacing):
+            return False  # from its start the slit opens once it holds its first lip pair (it has width then)
         u = np.linspace(u_from, upto, max(9, int(np.ceil((upto - u_from) / (0.1 * self.spacing))) + 1))
         piece = inc.point_at(u)
         near = self.contact.nodes_near_at_rest(sim, piece[0], piece[-1],

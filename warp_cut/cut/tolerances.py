@@ -32,6 +32,11 @@ edge a side, which shortens the crack as the sheet sees it: a short first wedge 
 prestressed sheet's opening within 7 % of Griffith's (``tests/test_fracture.py``), a whole
 spacing left 11 %."""
 
+LINK_REACH = 0.5
+"""A separated spring's link goes to a lip pair within this [x s] along the curve of where the
+spring crossed, else it waits for the next station: stations are a spacing apart, so no later
+one can lie nearer, and the links depend on the curve alone, not on when the events fell."""
+
 LAST_STATION = 0.5
 """Least distance [x s] from the newest lip station to the slit's tip."""
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from .chart import RegionChart
 from .incision import Incision
+from .tolerances import LINK_REACH
 from .topology import EditReport, TopologyEditor
 
 __all__ = ["OriginalSprings", "link_crossed_springs", "settle_pending_links", "carry_links"]
@@ -106,7 +107,7 @@ def link_crossed_springs(editor: TopologyEditor, inc: Incision, springs: Origina
         else:
             inc.pending_links.append((float(inc.project(x[None])[0][0]), float(springs.rest_lengths[k])))
     editor.make_links(direct, direct_rest, once_per_pair=False)
-    settle_pending_links(editor, inc, reach=0.75 * inc.spacing)
+    settle_pending_links(editor, inc, reach=LINK_REACH * inc.spacing)
 
 
 def _on_both_sides(inc: Incision, points: np.ndarray) -> bool:
