@@ -31,6 +31,7 @@ import numpy as np
 import shapely
 
 from ..errors import InputError
+from ..mesh.geometry import triangle_min_angles
 from ..sim.collision import pushed_out
 from ..sim.control import Tool
 from .chart import PiecewiseLinearMap, RegionChart
@@ -39,7 +40,17 @@ from .fill import Fill, fill_region
 from .incision import Incision
 from .region import Region
 from .slit_band import EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand, plan_band
-from .tolerances import CLEARANCE, LAST_STATION, MATCH, MAX_GROWTH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG, REGION_MARGIN
+from .tolerances import (
+    CLEARANCE,
+    LAST_STATION,
+    MATCH,
+    MAX_GROWTH,
+    MERGE,
+    MIN_ANGLE_DEG,
+    MIN_EDGE,
+    REFINE_ANGLE_DEG,
+    REGION_MARGIN,
+)
 from .topology import NodePositions, TopologyEditor
 
 __all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece", "clearance", "edge_clearance"]
@@ -155,8 +166,18 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
                 region.sweep([v])
             else:
                 wedges.append(wedge)
+    if refused:  # a split outline edge would leave a node on the edge of a triangle outside
+        raise SlitDoesNotFit("the refinement splits the region's outline however far it grows")
+    if layout.fill.unrefined and _smallest_angle(layout.fill) < MIN_ANGLE_DEG:
+        raise SlitDoesNotFit("the fill leaves a triangle under the smallest angle however far it grows")
     _check_slit(layout, band)
     return _apply(editor, inc, region, layout, positions, tool, growth)
+
+
+def _smallest_angle(fill: Fill) -> float:
+    """Smallest angle [deg] of the fill's triangles in its chart."""
+    flat = np.column_stack([fill.points, np.zeros(len(fill.points))])
+    return float(triangle_min_angles(flat, fill.triangles).min()) if len(fill.triangles) else 180.0
 
 
 def _check_slit(layout: _Layout, band: SlitBand) -> None:
