@@ -100,7 +100,7 @@ collision = true
 cutting = true
 
 [cutting]
-interval = 0.0166667     # s, one cut event per rendered frame
+# cut events by the blade's travel: cutting.travel, default 1 lip spacing (benchmarks/results/event_travel.md)
 keep_islands = false     # the excised skin is removed (cut.removed_islands)
 '''
     _save("elliptical_excision", text, tool, strokes)

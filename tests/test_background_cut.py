@@ -32,7 +32,10 @@ AXIS = np.array([-0.5, 0.0, 0.866])
 TABLES = ("node_table", "spring_table", "triangle_table", "link_table")
 
 
-LAG_1 = CutSettings(worker=True, max_lag=1)
+CLOCK = 1.0 / 60.0
+"""Cut events on a clock here, one per 60 fps frame (``cutting.interval``): an event falls due
+while the tool is lowered or still, as these tests need, whatever its travel."""
+LAG_1 = CutSettings(worker=True, max_lag=1, interval=CLOCK)
 """A cut in a worker whose every edit lands two steps after its event (the same every run)."""
 
 
@@ -51,8 +54,8 @@ def cut_stroke(background: bool, ticks: int = 1300, lift_at: int = 1200):
     background, each edit lands two steps after its event (``max_lag`` 1): the loop runs
     faster than real time here, and the run is the same every time."""
     model = TissueModel.from_patch((0.04, 0.03), 0.002)
-    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=CutSettings(worker=True, max_lag=1) if background
-                    else CutSettings())
+    sim = Simulator(model, dt=1e-3, device=DEVICE, cutting=LAG_1 if background
+                    else CutSettings(interval=CLOCK))
     for k in range(ticks):
         sim.step(tool=scalpel(k, lift_at))
     if background:

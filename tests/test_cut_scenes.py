@@ -108,43 +108,53 @@ def tilt_of(frame) -> float:
     return math.degrees(math.asin(abs(axis[2])))
 
 
-def events_while_drawing(travel, speed, interval, spacing, radius, tilt_deg):
-    """Cut events a straight stroke makes while its blade draws ``travel`` [m] through the skin
-    at ``speed`` [m/s], events due every ``interval`` [s], a tool of ``radius`` [m] whose axis
-    stands ``tilt_deg`` from the skin, station spacing ``spacing`` [m].
+def blade_travel_per_event(cutting, speed, spacing) -> float:
+    """How far [m] a blade drawn at ``speed`` [m/s] along the skin moves between due cut
+    events under ``cutting`` (CutSettings), lip spacing ``spacing`` [m]: ``speed x interval`` on
+    the clock, the travel itself by travel."""
+    interval, distance = cutting.event_rule(spacing)
+    return speed * interval if distance is None else distance
+
+
+def events_while_drawing(travel, per_event, spacing, radius, tilt_deg):
+    """Cut events a straight stroke makes while its blade draws ``travel`` [m] through the skin,
+    ``per_event`` [m] between due events (``blade_travel_per_event``), a tool of ``radius`` [m]
+    whose axis stands ``tilt_deg`` from the skin, station spacing ``spacing`` [m].
 
     An event extends the incision only once the blade has advanced ``MIN_ADVANCE`` spacings
-    along the rest curve since the last one: every k = ceil(MIN_ADVANCE s / (v interval)) due
+    along the rest curve since the last one: every k = ceil(MIN_ADVANCE s / per_event) due
     events. The slit's tip stays r / sin(tilt) + s / 4 behind the blade while it cuts
     (``Cutter._behind_the_blade``), and from its start the slit opens once it holds its first
     lip pair: its first station ``FIRST_STATION`` s from the start, ``LAST_STATION`` s behind
     the tip. So the first event that cuts comes once the blade has drawn behind + (FIRST_STATION
     + LAST_STATION) s, then one every k due events; when the blade leaves, one more cuts the
-    slit to its end: (travel - behind - (FIRST_STATION + LAST_STATION) s) / (k v interval) + 1,
+    slit to its end: (travel - behind - (FIRST_STATION + LAST_STATION) s) / (k per_event) + 1,
     give or take one at each end (the phase of the events against the drawing's start and end)."""
-    step = MIN_ADVANCE * spacing
-    k = math.ceil(step / (speed * interval) - 1e-9)
+    k = math.ceil(MIN_ADVANCE * spacing / per_event - 1e-9)
     behind = radius / math.sin(math.radians(tilt_deg)) + 0.25 * spacing
-    return (travel - behind - (FIRST_STATION + LAST_STATION) * spacing) / (k * speed * interval) + 1.0
+    return (travel - behind - (FIRST_STATION + LAST_STATION) * spacing) / (k * per_event) + 1.0
 
 
-@pytest.mark.parametrize("interval", [
-    "0.05",
-    "0.0166667",  # one event per 60 fps frame: the blade moves 1/3 mm, an extension every 2 frames
+@pytest.mark.parametrize("setting", [
+    "cutting.interval=0.05",
+    "cutting.interval=0.0166667",  # one event per 60 fps frame: the blade moves 1/3 mm, an extension every 2 frames
+    "cutting.travel=0.3",  # 0.6 mm: an extension at every event
+    "cutting.travel=1.0",  # the default: one lip spacing
 ])
-def test_cut_events_follow_the_interval(interval):
-    """``cutting.interval``: the events of a 2 cm stroke drawn at 2 cm/s (1 s) are those
-    ``events_while_drawing`` counts: one per interval where the blade moves MIN_ADVANCE
-    spacings (0.5 mm) in one (50 ms: 1 mm), one per two where it needs two (1/60 s: 1/3 mm),
-    less those before the slit behind the blade (r / sin 60 deg + s / 4) holds its first lip
-    pair, plus the one that cuts to the end when the blade leaves; +- 2 for the phase at both
-    ends. Going
-    in and out along its axis the blade does not move the crossing."""
-    scene, start, end = short_stroke(0.02, [f"cutting.interval={interval}"])
+def test_cut_events_follow_the_interval_or_the_travel(setting):
+    """``cutting.interval`` / ``cutting.travel``: the events of a 2 cm stroke drawn at 2 cm/s
+    (1 s) are those ``events_while_drawing`` counts: one per due event where the blade moves
+    MIN_ADVANCE spacings (0.5 mm) in one (50 ms: 1 mm; by travel 0.6 and 2 mm), one per two
+    where it needs two (1/60 s: 1/3 mm), less those before the slit behind the blade (r / sin
+    60 deg + s / 4) holds its first lip pair, plus the one that cuts to the end when the blade
+    leaves; +- 2 for the phase at both ends. Going in and out along its axis the blade does not
+    move the crossing (by travel those events fall due, but cut nothing)."""
+    scene, start, end = short_stroke(0.02, [setting])
     m = run_scene(scene).metrics
     speed = drawing(scene)[2] / (end - start)
-    expected = events_while_drawing(0.02, speed, float(interval), scene.tissue.spacing, scene.tool.radius,
-                                    tilt_of(scene.tool.keyframes[1]))
+    spacing = scene.tissue.spacing
+    expected = events_while_drawing(0.02, blade_travel_per_event(scene.cutting, speed, spacing), spacing,
+                                    scene.tool.radius, tilt_of(scene.tool.keyframes[1]))
     ran = m["cut"]["events"] + m["cut"]["skipped_events"]  # a skipped event ran: its slit did not fit yet
     assert abs(ran - expected) <= 2, (m["cut"], expected)
     assert m["cut"]["incisions"] == 1

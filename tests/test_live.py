@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 import trimesh
-from test_cut_scenes import events_while_drawing
+from test_cut_scenes import blade_travel_per_event, events_while_drawing
 
 from warp_cut.cli import main
 from warp_cut.cut.classes import NodeClass
@@ -159,10 +159,11 @@ def test_scripted_cut_changes_the_topology_and_marks_the_wound(cut_run):
     # the incision runs where the blade crossed the skin: 15 mm along +x, on y = 0
     assert controls[-1, 0] - controls[0, 0] == pytest.approx(0.015, abs=0.002)
     assert np.abs(controls[:, 1]).max() < 1e-3
-    # a 15 mm stroke at the scalpel's speed, 60 degrees from the skin, events every frame:
-    # those the same straight stroke makes in a scene run (``events_while_drawing``), +- 2
+    # a 15 mm stroke at the scalpel's speed, 60 degrees from the skin, events by the scene's
+    # rule: those the same straight stroke makes in a scene run (``events_while_drawing``), +- 2
     scene = live.scene
-    expected = events_while_drawing(0.015, live.speed, scene.cutting.interval, scene.tissue.spacing,
+    spacing = scene.tissue.spacing
+    expected = events_while_drawing(0.015, blade_travel_per_event(scene.cutting, live.speed, spacing), spacing,
                                     scene.tool.radius, live.pose.tilt_deg)
     status = live.status()
     assert status.incisions == 1 and abs(status.cut_events - expected) <= 2 and status.error is None

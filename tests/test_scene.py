@@ -34,6 +34,9 @@ def base():
     ("solver.substeps", 0, ["solver.substeps", "[1"]),
     ("tool.radius", float("nan"), ["tool.radius", "finite"]),
     ("tissue.colour", 1, ["tissue.colour", "unknown key"]),
+    ("cutting.travel", 0.0, ["cutting.travel", "(0", "4"]),
+    ("cutting.travel", 5.0, ["cutting.travel", "(0", "4"]),
+    ("cutting.interval", -0.01, ["cutting.interval", "[0"]),
 ])
 def test_bad_values_name_file_key_and_range(key, value, words):
     data = apply_overrides(base(), [])
@@ -70,6 +73,19 @@ def test_overrides_parse_toml_values():
     assert scene.solver.dt == "auto"
     with pytest.raises(SceneError, match="section.key=value"):
         apply_overrides(base(), ["stiffness"])
+
+
+def test_cut_events_by_travel_or_on_a_clock_not_both():
+    """``cutting.travel`` [lip spacings] or ``cutting.interval`` [s]; neither: by travel, the
+    default; both: refused, naming the key."""
+    data = base()
+    data["cutting"] = {"travel": 0.75}
+    assert parse_scene(data, "s.toml").cutting.event_rule(2e-3) == (None, pytest.approx(1.5e-3))
+    data["cutting"] = {"interval": 0.02}
+    assert parse_scene(data, "s.toml").cutting.event_rule(2e-3) == (0.02, None)
+    data["cutting"] = {"interval": 0.02, "travel": 0.75}
+    with pytest.raises(SceneError, match=r"s.toml: \[cutting.travel\] .*not both"):
+        parse_scene(data, "s.toml")
 
 
 def test_gravity_false_disables_it():

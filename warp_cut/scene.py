@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cut.settings import CutSettings
+from .cut.settings import MAX_TRAVEL, CutSettings
 from .errors import InputError, SceneError
 from .mesh.checks import cuttable_problems
 from .sim.bending import flexural_rigidity
@@ -48,7 +48,7 @@ _SCHEMA: dict[str, set[str]] = {
     "physics": {"gravity", "residual_stress", "collision", "cutting", "foundation", "bending"},
     "solver": {"integrator", "dt", "substeps", "safety"},
     "tool": {"radius", "length", "keyframes"},
-    "cutting": {"sweep_radius", "interval", "force_threshold", "spacing", "tolerance", "lip_offset", "keep_islands"},
+    "cutting": {"sweep_radius", "interval", "travel", "force_threshold", "spacing", "tolerance", "lip_offset", "keep_islands"},
 }
 """Allowed keys of each table ("" is the top level)."""
 
@@ -454,6 +454,11 @@ def _parse_cutting(r: _Reader, duration: float) -> CutSettings:
             given[key] = r.number(cut_t, "cutting", key, low=0, high=1.0, low_open=True)
     if "interval" in cut_t:
         given["interval"] = r.number(cut_t, "cutting", "interval", low=0, high=duration)
+    if "travel" in cut_t:
+        if "interval" in cut_t:
+            raise r.error("cutting.travel", "give cutting.interval (events on a clock) or cutting.travel "
+                          "(events by the blade's travel), not both")
+        given["travel"] = r.number(cut_t, "cutting", "travel", low=0, high=MAX_TRAVEL, low_open=True)
     if "force_threshold" in cut_t:
         given["force_threshold"] = r.number(cut_t, "cutting", "force_threshold", low=0, high=1e6)
     given["keep_islands"] = r.boolean(cut_t, "cutting", "keep_islands", False)

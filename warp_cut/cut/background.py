@@ -152,6 +152,8 @@ class BackgroundCutter:
         self._poses = np.zeros((64, 7))
         self._pose_count = 0
         self._clock = EventClock()
+        self.spacing = self._settings.lip_spacing(model.rest_lengths)
+        """The lip station spacing [m] (the worker's Cutter's), which events by travel count in."""
         self._tool_in = False
         self._end_due = False
         self.edits_applied = 0
@@ -218,9 +220,11 @@ class BackgroundCutter:
             self._send(sim, poses)
 
     def _event_due(self, sim: CutHost) -> bool:
-        """Whether an interval has passed since the last event (then this step's is the last):
-        the worker's Cutter keeps the same clock."""
-        return self._clock.due(sim.time, sim.dt, self.settings.interval)
+        """Whether an event is due (``EventClock``; then this step's is the last): the
+        worker's Cutter keeps the same clock, with the same tool poses."""
+        tool = sim.tool_pose if sim.collision else None
+        tip = tool.p0 if tool is not None and tool.radius > 0 else None
+        return self._clock.due(sim.time, sim.dt, tip, *self.settings.event_rule(self.spacing))
 
     def _record_pose(self, sim) -> None:
         """Keep the step's tool pose, or note that the tool has left (the worker ends the

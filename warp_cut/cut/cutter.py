@@ -1,8 +1,9 @@
 """Cutter: the three-stage cut (paper section 2.3), decided in the rest (material) shape.
 
-The blade meets the skin where it lies now; the cut changes the material. Every ``interval``
-seconds while the tool's axis crosses the skin (and, optionally, the tool pushes harder than a
-threshold) a cut event runs:
+The blade meets the skin where it lies now; the cut changes the material. Each time the tool's
+tip has travelled a set fraction of the lip spacing (``CutSettings.travel``; or every
+``interval`` seconds, on a clock) while the tool's axis crosses the skin (and, optionally, the
+tool pushes harder than a threshold) a cut event runs:
 
 * where the blade is: the crossing of the tool's axis with the current skin around it, with
   the skin's normal there (``warp_cut.cut.surface``), carried into the rest shape through the
@@ -94,8 +95,7 @@ class Cutter:
             raise InputError("this mesh cannot be cut (a cut needs a manifold, consistently wound "
                              "mesh without duplicate or degenerate triangles): " + "; ".join(problems))
         self.editor = TopologyEditor(model)
-        lengths = model.rest_lengths
-        self.spacing = self.settings.spacing or float(np.median(lengths))
+        self.spacing = self.settings.lip_spacing(model.rest_lengths)
         self.contact = BladeContact(model, HitLists(device), self.spacing)
         self.originals = OriginalSprings(model) if self.editor.policy.makes_links else None
         """The tissue's springs as built (the paper's links model: each one a curve crosses
@@ -130,7 +130,8 @@ class Cutter:
             self._poses.clear()
             self._tip_before = None
             self.end_incision(sim)
-        if not self._clock.due(sim.time, sim.dt, self.settings.interval) or not cutting:
+        tip = tool.p0 if cutting else None
+        if not self._clock.due(sim.time, sim.dt, tip, *self.settings.event_rule(self.spacing)) or not cutting:
             return
         poses, self._poses = self._poses, []
         tip_before, self._tip_before = self._tip_before, tool.p0

@@ -8,7 +8,13 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["CutSettings"]
+__all__ = ["CutSettings", "DEFAULT_TRAVEL", "MAX_TRAVEL"]
+
+DEFAULT_TRAVEL = 1.0
+"""Default travel between cut events, in lip spacings (``benchmarks/results/event_travel.md``)."""
+MAX_TRAVEL = 4.0
+"""Largest travel between cut events [lip spacings]: farther, several stations fall due in one
+event and the slit trails the blade by more than it opens in one."""
 
 
 @dataclass(frozen=True)
@@ -16,7 +22,12 @@ class CutSettings:
     """Cutting parameters (SI). None means the documented default.
 
     sweep_radius: radius of the swept circle [m] (default: the tool radius).
-    interval: time between cut events [s] (default 1/60, one per rendered frame).
+    interval: cut events on a clock, one every this many seconds of simulated time (0: after
+        every step). Give ``interval`` or ``travel``, not both.
+    travel: cut events by the blade's travel: one each time the tool's tip has moved this
+        fraction of the lip spacing since the last event (and one at once when the tool
+        comes back after leaving), none while it rests or hovers still. Neither given: events
+        by travel, ``DEFAULT_TRAVEL`` (chosen from ``benchmarks/results/event_travel.md``).
     force_threshold: cutting starts once |tool force| >= this [N] (default 0: any contact).
     spacing: lip station spacing [m] (default: median spring rest length).
     tolerance: Bezier fit tolerance [m] (default 0.1 x spacing).
@@ -31,7 +42,8 @@ class CutSettings:
     """
 
     sweep_radius: float | None = None
-    interval: float = 1.0 / 60.0
+    interval: float | None = None
+    travel: float | None = None
     force_threshold: float = 0.0
     spacing: float | None = None
     tolerance: float | None = None
@@ -45,8 +57,13 @@ class CutSettings:
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v > 0):
                 raise InputError(f"cutting.{name} must be > 0 m, got {v}")
-        if not (np.isfinite(self.interval) and self.interval >= 0):
+        if self.interval is not None and not (np.isfinite(self.interval) and self.interval >= 0):
             raise InputError(f"cutting.interval must be >= 0 s, got {self.interval}")
+        if self.travel is not None and not (np.isfinite(self.travel) and 0 < self.travel <= MAX_TRAVEL):
+            raise InputError(f"cutting.travel must be in (0, {MAX_TRAVEL:g}] lip spacings, got {self.travel}")
+        if self.interval is not None and self.travel is not None:
+            raise InputError("give cutting.interval (events on a clock) or cutting.travel (events by the "
+                             "blade's travel), not both")
         if not (np.isfinite(self.force_threshold) and self.force_threshold >= 0):
             raise InputError(f"cutting.force_threshold must be >= 0 N, got {self.force_threshold}")
         for name in ("worker", "keep_islands"):
@@ -57,3 +74,15 @@ class CutSettings:
                 raise InputError(f"cutting.max_lag must be an integer >= 1 step, or None, got {self.max_lag!r}")
             if not self.worker:
                 raise InputError("cutting.max_lag applies to a cut in a worker process (cutting.worker = true)")
+
+    def event_rule(self, spacing: float) -> tuple[float | None, float | None]:
+        """When cut events fall due, for lip spacing ``spacing`` [m]: (interval [s], None) on a
+        clock, or (None, distance [m]) by the tip's travel."""
+        if self.interval is not None:
+            return self.interval, None
+        return None, (DEFAULT_TRAVEL if self.travel is None else self.travel) * spacing
+
+    def lip_spacing(self, rest_lengths) -> float:
+        """The lip station spacing [m]: ``spacing``, or the median of the tissue's spring rest
+        lengths [m] (s,)."""
+        return self.spacing or float(np.median(rest_lengths))
