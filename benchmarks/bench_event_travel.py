@@ -102,7 +102,7 @@ def plot(rows: list[dict]) -> None:
                 ("width_plateau_mm", "width plateau [mm]"), ("coverage", "coverage")]
     fig, axes = plt.subplots(2, 3, figsize=(12, 6.5))
     for ax, (key, label) in zip(axes.flat, measures):
-        for k, case in enumerate(dict.fromkeys(r["case"] for r in rows)):
+        for case in dict.fromkeys(r["case"] for r in rows):
             mine = [r for r in rows if r["case"] == case]
             by_travel = [r for r in mine if r["travel_mm"] != ""]
             line, = ax.plot([float(r["events_by"].split()[1]) for r in by_travel], [r[key] for r in by_travel],

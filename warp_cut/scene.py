@@ -48,7 +48,8 @@ _SCHEMA: dict[str, set[str]] = {
     "physics": {"gravity", "residual_stress", "collision", "cutting", "foundation", "bending"},
     "solver": {"integrator", "dt", "substeps", "safety"},
     "tool": {"radius", "length", "keyframes"},
-    "cutting": {"sweep_radius", "interval", "travel", "force_threshold", "spacing", "tolerance", "lip_offset", "keep_islands"},
+    "cutting": {"sweep_radius", "interval", "travel",
+                "force_threshold", "spacing", "tolerance", "lip_offset", "keep_islands"},
 }
 """Allowed keys of each table ("" is the top level)."""
 
