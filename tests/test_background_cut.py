@@ -107,7 +107,7 @@ def test_settings_and_end_incision_reach_the_worker():
         cutter = sim.cutter
         cutter.end_incision(sim)  # the tool is still in: the incision ends anyway
         assert cutter.call(sim, "current") is None and len(cutter.incisions) == 1
-        stiff = CutSettings(force_threshold=1e9, worker=True, max_lag=1)  # no tool pushes this hard
+        stiff = CutSettings(force_threshold=1e9, worker=True, max_lag=1, interval=CLOCK)  # no tool pushes this hard
         cutter.settings = stiff
         for k in range(500, 560):
             sim.step(tool=scalpel(k))

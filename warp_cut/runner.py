@@ -147,9 +147,9 @@ def _step_frames(scene: Scene, sim: Simulator, path, steps_per_frame: int, quiet
     series = {c: np.zeros(frames + 1) for c in timeseries_columns(sim)}
     ticks = TickLog(frames * steps_per_frame, budget=sim.dt)
     bar = _progress(frames, quiet)
-    start = time.perf_counter()
     try:
         with frozen_gc():
+            start = time.perf_counter()  # the loop's wall time: after the one collection before it
             for frame in range(frames + 1):
                 for _ in range(steps_per_frame if frame else 0):
                     ticks.step(sim, path)  # one step per tick, as a haptic loop calls it

@@ -118,6 +118,7 @@ class Simulator:
         self.tool_pose: Tool | None = None
         """The tool pose of the last step (its end), or None before the first step with a tool."""
         self._ccd = None
+        self._energy = None  # the kinetic energy's one-element sum, made at its first read
         self.device_model = DeviceModel(self.model, self.device)
         self.solver = self._make_solver()
         self._choose_steps()
@@ -228,7 +229,10 @@ class Simulator:
     def kinetic_energy(self) -> float:
         """Sum of 0.5 m |v|^2 over the nodes [J]."""
 
-        out = wp.zeros(1, dtype=wp.float32, device=self.device)
+        if self._energy is None:
+            self._energy = wp.zeros(1, dtype=wp.float32, device=self.device)
+        out = self._energy
+        out.zero_()
         m = self.device_model
         wp.launch(kinetic_energy, dim=m.node_count, device=self.device,
                   inputs=[self._state.velocities, m.node_mass, m.node_flags, out])

@@ -33,7 +33,7 @@ class EventClock:
         if distance is None:
             if time - self.last < interval - 0.5 * dt:  # the step nearest
                 return False
-        elif self.tip is not None and float(np.linalg.norm(np.subtract(tip, self.tip))) < distance:
+        elif self.tip is not None and math.dist(tip, self.tip) < distance:
             return False
         self.last, self.tip = time, None if tip is None else np.array(tip, dtype=float)
         return True
