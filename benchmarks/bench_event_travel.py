@@ -1,7 +1,7 @@
 """Cut events by the blade's travel: the trade between how often the cut runs and its quality.
 
 Each incision scene is run with the cut in the step (reproducible), its events on the scene's
-own clock (``cutting.interval``, one per rendered frame) and by travel (``cutting.travel``:
+clock (``cutting.interval`` 1/60 s, one per rendered frame) and by travel (``cutting.travel``:
 one event each time the tool's tip has moved that fraction of the lip spacing). Per run: cut
 events; the real-time factor (``warp-cut run``'s, over the loop's wall time: median of
 ``repeats``, all runs interleaved, so the machine's load hits every setting alike); coverage,
@@ -33,19 +33,20 @@ CASES = {"straight_incision, 2 mm": ("straight_incision", []),
          "straight_incision, 1 mm": ("straight_incision", ["tissue.spacing=0.001"]),
          "curved_incision, 2 mm": ("curved_incision", [])}
 """Row label -> (scene, overrides)."""
+CLOCK = 1.0 / 60.0
+"""The clock's interval [s]: one event per rendered frame (the scenes' rule before travel)."""
 TRAVELS = (None, 0.25, 0.5, 1.0, 1.5, 2.0)
-"""None: the scene's own clock; else ``cutting.travel`` [lip spacings]."""
+"""None: on the clock (``CLOCK``); else ``cutting.travel`` [lip spacings]."""
 COLUMNS = ["case", "events_by", "travel_mm", "cut_events", "realtime_factor", "coverage", "lip_deviation_mm",
            "slivers", "min_angle_deg", "unfilled_holes", "width_peak_mm", "width_plateau_mm", "valid"]
 
 
 def scene_with(case: str, travel: float | None):
-    """The case's scene with its events on its clock (``travel`` None) or by ``travel``."""
+    """The case's scene with its events on the clock (``travel`` None) or by ``travel``."""
     name, overrides = CASES[case]
     scene = load_scene(name, overrides)
-    if travel is None:
-        return scene
-    return dataclasses.replace(scene, cutting=dataclasses.replace(scene.cutting, interval=None, travel=travel))
+    rule = {"interval": CLOCK, "travel": None} if travel is None else {"interval": None, "travel": travel}
+    return dataclasses.replace(scene, cutting=dataclasses.replace(scene.cutting, **rule))
 
 
 def one_run(case: str, travel: float | None) -> tuple[dict, float]:
@@ -120,7 +121,7 @@ def plot(rows: list[dict]) -> None:
 
 def report(rows: list[dict], repeats: int, load_before) -> str:
     return "\n\n".join([
-        "Each case run with the cut in the step (reproducible), its cut events on the scene's clock "
+        "Each case run with the cut in the step (reproducible), its cut events on a clock "
         "(one per rendered frame, 1/60 s) and by the blade's travel (`cutting.travel`, in lip spacings; "
         "`travel_mm` is that travel in millimetres). `realtime_factor` is the median of "
         f"{repeats} runs, all settings interleaved; the other columns are the run's metrics.json "

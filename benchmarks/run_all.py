@@ -24,6 +24,7 @@ quiet_warp()
 import bench_background_quality  # noqa: E402
 import bench_compile  # noqa: E402
 import bench_cut_latency  # noqa: E402
+import bench_event_travel  # noqa: E402
 import bench_haptic  # noqa: E402
 import bench_live  # noqa: E402
 import bench_mesh_checks  # noqa: E402
@@ -44,6 +45,7 @@ def main(argv=None) -> int:
              ("pareto (incision width curve)", bench_pareto_incision),
              ("stable step", bench_stable_step), ("real time (skin patch)", bench_realtime),
              ("compile time", bench_compile), ("cut event latency", bench_cut_latency),
+             ("cut events by travel", bench_event_travel),
              ("mesh checks", bench_mesh_checks), ("haptic rate (1 ms ticks)", bench_haptic),
              ("live cutting (warp-cut live)", bench_live), ("paced runs (--pace)", bench_pace),
              ("cut quality, cut in the background", bench_background_quality)]
