@@ -127,7 +127,7 @@ def report(rows: list[dict], repeats: int, load_before) -> str:
         f"{repeats} runs, all settings interleaved; the other columns are the run's metrics.json "
         "(deterministic): `lip_deviation_mm` is `incision.max_deviation_m`, `slivers` the triangles "
         "the cut made under 10 degrees, `min_angle_deg` the mesh's smallest angle, `width_*` "
-        f"the width curve. The default travel is {DEFAULT_TRAVEL:g} lip spacings "
+        f"the width curve. The default travel is {DEFAULT_TRAVEL:g} x the lip spacing "
         "(`warp_cut.cut.settings.DEFAULT_TRAVEL`).",
         f"Load average (1, 5, 15 min) before: {', '.join(f'{v:.2f}' for v in load_before)}.",
         markdown_table(rows, COLUMNS),
