@@ -46,7 +46,7 @@ def run(quick: bool = False):
              for i in ("semi_implicit", "xpbd", "implicit_euler")]
     cases += [(s, "semi_implicit", "straight_incision") for s in spacings]
     for spacing, integrator, scene_name in cases:
-        repeats = 1 if quick else (2 if scene_name == "straight_incision" else 3)
+        repeats = 1 if quick else 3
         model, sim, factors = measure(spacing, integrator, scene_name, repeats=repeats)
         rows.append({"scene": scene_name, "spacing_m": spacing, "integrator": integrator,
                      "nodes": model.node_count, "springs": model.spring_count,
