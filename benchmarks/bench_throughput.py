@@ -86,6 +86,9 @@ def run(repeats: int = 5, quick: bool = False):
         times = interleaved(fns, calls, repeats)
         warp = times["warp"]
         row = {"mesh": label, "nodes": N, "springs": S}
+        for name in ("warp", "xpbd", "implicit_euler"):
+            stepper = sims[name]
+            row[f"{name}_launches"] = stepper.solver.launches_per_substep(stepper.state, stepper._next, h)
         for name in ("warp", "springs_alone", "warp_plain", "implicit_euler", "xpbd", "numpy", "newton"):
             if name in times:
                 row[f"{name}_us"] = float(np.median(times[name]) * 1e6)
@@ -101,9 +104,10 @@ def run(repeats: int = 5, quick: bool = False):
         print(f"  {label}: step {row['warp_us']:.1f} us, springs alone {row['springs_alone_us']:.1f} us, "
               f"numpy x{row['numpy_over_warp']}, newton x{row['newton_over_warp']}", flush=True)
     write_csv("throughput", rows)
-    cols = ["mesh", "nodes", "springs", "warp_us_spread", "springs_alone_us_spread",
+    cols = ["mesh", "nodes", "springs", "warp_launches", "warp_us_spread", "springs_alone_us_spread",
             "springs_alone_over_step", "numpy_over_warp", "newton_over_warp",
-            "plain_over_replayed", "implicit_euler_us_spread", "xpbd_us_spread"]
+            "plain_over_replayed", "implicit_euler_launches", "implicit_euler_us_spread", "xpbd_launches",
+            "xpbd_us_spread"]
     note = ("" if newton_missing is None else
             f"\n\nNewton could not be imported ({newton_missing}); its column is n/a.")
     write_markdown("throughput", "Throughput against mesh size (one CPU core)",
@@ -111,7 +115,8 @@ def run(repeats: int = 5, quick: bool = False):
                    "ratios repeat by repeat. `warp`: the semi-implicit substep (springs, gravity, "
                    "damping, tool test, integrate) replayed as a graph; `springs_alone`: its "
                    "spring-force kernel only; `warp_plain`: the same step with plain "
-                   "`wp.launch` calls.\n\n" + markdown_table(rows, cols) + note)
+                   "`wp.launch` calls; `*_launches`: kernel launches per substep (one graph replay runs "
+                   "them all).\n\n" + markdown_table(rows, cols) + note)
     _plot(rows)
     return rows
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import DEVICE
 
-from warp_cut import CutSettings, Simulator, TissueModel, Tool
+from warp_cut import CutSettings, Material, Simulator, TissueModel, Tool
 from warp_cut.sim.model_change import ModelChange
 from warp_cut.solvers import INTEGRATORS
 from warp_cut.solvers.base import CAPTURE_GAP
@@ -58,6 +58,18 @@ def test_only_enabled_physics_is_compiled(integrator):
                 assert compiled, f"{physics} enabled but no module with it was compiled: {names}"
             else:
                 assert not compiled, f"{physics} disabled but compiled: {compiled}"
+
+
+@pytest.mark.parametrize("links, bending", [(False, False), (True, False), (True, True)])
+def test_a_semi_implicit_substep_is_one_launch_per_force_family_and_one_per_node(links, bending):
+    """The semi-implicit substep launches the spring forces, the residual links' forces (when
+    there are links), the hinges' bending forces (with bending) and one node kernel (gravity,
+    damping, tool, foundation and integration fused): ``launches_per_substep`` counts them."""
+    model = TissueModel.from_patch((0.01, 0.01), 0.002, material=Material(bending_rigidity=1e-6 if bending else 0.0))
+    if links:
+        model.add_residual_links([[0, 1]], [0.002])
+    sim = Simulator(model, dt=1e-3, device=DEVICE)
+    assert sim.solver.launches_per_substep(sim.state, sim._next, sim.substep) == 2 + links + bending
 
 
 def run_positions(integrator, replay, steps=40):

@@ -181,6 +181,11 @@ class SolverBase:
                 self._sequences[key] = sequence.finalize(capture_now=first)
         return self._sequences[self._key(state_in, state_out, h)]
 
+    def launches_per_substep(self, state_in, state_out, h: float) -> int:
+        """Kernel launches one substep of ``h`` [s] from ``state_in`` runs (recorded now if
+        not yet)."""
+        return len(self.prepare(state_in, state_out, h))
+
     def _key(self, state_in, state_out, h: float) -> tuple:
         """What a recorded sequence depends on: the state buffers, h and the model's sizes."""
         return (state_in.positions.ptr, state_out.positions.ptr, float(h)) + self._extent()

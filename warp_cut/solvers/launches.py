@@ -116,6 +116,10 @@ class LaunchSequence:
                 cmd.launch()
         self.graph = capture.graph
 
+    def __len__(self) -> int:
+        """Kernel launches in the sequence (one replay runs them all)."""
+        return len(self._plain) + len(self._commands)
+
     @property
     def kind(self) -> str:
         """How ``launch`` runs: "graph", "commands" or "launch"."""
