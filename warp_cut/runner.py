@@ -150,6 +150,8 @@ def _step_frames(scene: Scene, sim: Simulator, path, steps_per_frame: int, quiet
     try:
         with frozen_gc():
             start = time.perf_counter()  # the loop's wall time: after the one collection before it
+            if pacer is not None:
+                pacer.start = start  # the pacer's clock starts with the loop's
             for frame in range(frames + 1):
                 for _ in range(steps_per_frame if frame else 0):
                     ticks.step(sim, path)  # one step per tick, as a haptic loop calls it

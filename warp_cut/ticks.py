@@ -34,8 +34,8 @@ def wait_until(deadline: float, spin: float = 2e-3) -> None:
 
 class Pacer:
     """Holds a loop to one tick per ``period`` [s] of wall time, as a haptic device paces it:
-    ``wait(k)`` returns once ``k + 1`` periods have passed since the pacer was made (at once
-    if the loop is late; ``wait_until``)."""
+    ``wait(k)`` returns once ``k + 1`` periods have passed since ``start`` (when it was made,
+    or when the loop sets it as it starts; at once if the loop is late; ``wait_until``)."""
 
     def __init__(self, period: float):
         self.period = float(period)
