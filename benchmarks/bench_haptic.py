@@ -78,9 +78,9 @@ def tick_run(spacing: float, curved: bool, cutting: str, ticks: int) -> dict:
     mode, pace = CUTTING[cutting]
     background = mode not in (None, False)
     made = time.perf_counter()
-    cutting = None if mode is None else wc.CutSettings(
+    settings = None if mode is None else wc.CutSettings(
         worker=background, max_lag=mode if background and mode is not True else None)
-    sim = wc.Simulator(model, dt=1e-3, cutting=cutting)
+    sim = wc.Simulator(model, dt=1e-3, cutting=settings)
     setup_s = time.perf_counter() - made  # with a background cut, the worker's start
     poses = tools(ticks, curved)
     log = TickLog(ticks, budget=sim.dt, cpu_time=True)
