@@ -48,7 +48,7 @@ from .incision import Incision
 from .islands import islands_from
 from .material_point import MaterialPoint, affine_material_point
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
-from .region import distance_to_segments
+from .region import border_edges, distance_to_segments
 from .remesh import PieceCut, SlitDoesNotFit, clearance, cut_piece, edge_clearance
 from .settings import CutSettings
 from .surface import Crossing
@@ -397,9 +397,9 @@ class Cutter:
         chart = RegionChart.of_triangles(rest)  # a point over a triangle, off its plane (a curve's chord) is on it
         lam = barycentric(chart.to2d(points), chart.to2d(rest))
         inside = np.nan_to_num(lam.min(axis=2), nan=-1.0).max(axis=1) >= -0.01
-        border = [(int(c[k]), int(c[(k + 1) % 3])) for c in corners for k in range(3)]
-        border = np.array([e for e in border if len(self.model.index.triangles_with_edge(*e)) == 1
-                           and not (e[0] in own and e[1] in own)], dtype=np.int64).reshape(-1, 2)
+        border = border_edges(self.model, tris)
+        if own:
+            border = border[~(np.isin(border[:, 0], list(own)) & np.isin(border[:, 1], list(own)))]
         points_of = self.model.points
         away = distance_to_segments(points, points_of[border[:, 0]], points_of[border[:, 1]]) > edge
         return inside & away

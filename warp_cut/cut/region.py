@@ -25,7 +25,7 @@ from ..mesh.geometry import triangle_angles
 from ..sim.topology_index import TopologyIndex
 from .tolerances import ROUND_ANGLE_DEG
 
-__all__ = ["Region", "tissue_segments", "distance_to_segments"]
+__all__ = ["Region", "tissue_segments", "distance_to_segments", "border_edges", "border_nodes"]
 
 
 def distance_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -44,6 +44,30 @@ def tissue_segments(curve: np.ndarray, on_tissue: np.ndarray) -> tuple[np.ndarra
     opening it sweeps nothing)."""
     keep = on_tissue[:-1] | on_tissue[1:]
     return curve[:-1][keep], curve[1:][keep]
+
+
+def border_edges(model, triangles) -> np.ndarray:
+    """The edges of ``triangles`` (live triangle slots) on a border of the tissue (held by one
+    live triangle of the whole mesh), as sorted node pairs (k, 2) in lexicographic order."""
+    tris = np.asarray(triangles, dtype=np.int64)
+    if not len(tris):
+        return np.zeros((0, 2), dtype=np.int64)
+    corners = model.triangle_table.column("corners")[tris]
+    edges = np.sort(corners[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    once = unique[counts == 1]  # its other triangle, if any, lies outside ``triangles``: ask the index
+    index = model.index
+    keep = [len(index.triangles_with_edge(int(a), int(b))) == 1 for a, b in once]
+    return once[np.array(keep, dtype=bool)] if len(once) else once
+
+
+def border_nodes(model, nodes: np.ndarray) -> np.ndarray:
+    """Mask (k,) of ``nodes`` on a border of the tissue (an end of an edge of one live
+    triangle): every triangle at such an edge holds the node, so the triangles at ``nodes``
+    decide it."""
+    nodes = np.asarray(nodes, dtype=np.int64)
+    edges = border_edges(model, model.index.triangles_at(nodes.tolist()))
+    return np.isin(nodes, edges.ravel())
 
 
 class Region:
@@ -75,41 +99,24 @@ class Region:
         a, b = tissue_segments(curve, np.asarray(on_tissue, dtype=bool))
         dist = distance_to_segments(points[near], a, b) if len(near) else np.zeros(0)
         keep = set(int(v) for v in protected)
-        swept = near[(dist <= clearance) & ~cls._border_nodes(model, near)]
+        swept = near[(dist <= clearance) & ~border_nodes(model, near)]
         deleted = ({int(v) for v in swept} - keep) | {int(v) for v in provisional}
         within = near[dist <= clearance + margin]
         region = cls(model, deleted, model.index.triangles_at(set(within.tolist()) | deleted))
         region.round()
         return region
 
-    @staticmethod
-    def _border_nodes(model, nodes: np.ndarray) -> np.ndarray:
-        """Mask (k,) of ``nodes`` on a border of the tissue (an edge of one live triangle)."""
-        index, corners = model.index, model.triangle_table.column("corners")
-        out = np.zeros(len(nodes), dtype=bool)
-        for k, v in enumerate(nodes):
-            v = int(v)
-            for t in index.node_triangles[v]:
-                if any(int(w) != v and len(index.triangles_with_edge(v, int(w))) == 1 for w in corners[t]):
-                    out[k] = True
-                    break
-        return out
-
     # ------------------------------------------------------------------ shape
     def outline(self) -> list[tuple[int, int]]:
         """The region's border edges (a, b), directed with the region on their left (each
         appears in one region triangle only; the mesh's counter-clockwise winding)."""
-        corners = self.model.triangle_table.column("corners")
-        count: dict[tuple[int, int], int] = {}
-        directed = []
-        for t in self.triangles:
-            c = [int(v) for v in corners[t]]
-            for k in range(3):
-                a, b = c[k], c[(k + 1) % 3]
-                key = (min(a, b), max(a, b))
-                count[key] = count.get(key, 0) + 1
-                directed.append((a, b))
-        return [(a, b) for a, b in directed if count[(min(a, b), max(a, b))] == 1]
+        if not self.triangles:
+            return []
+        tris = np.fromiter(self.triangles, dtype=np.int64, count=len(self.triangles))
+        c = self.model.triangle_table.column("corners")[tris].astype(np.int64)
+        directed = np.stack([c, np.roll(c, -1, axis=1)], axis=2).reshape(-1, 2)  # (c0 c1), (c1 c2), (c2 c0)
+        _, inverse, counts = np.unique(np.sort(directed, axis=1), axis=0, return_inverse=True, return_counts=True)
+        return [(a, b) for a, b in directed[counts[inverse.ravel()] == 1].tolist()]
 
     def nodes(self) -> set[int]:
         """Every node of the region's triangles."""
@@ -126,36 +133,25 @@ class Region:
         corners = self.model.triangle_table.column("corners")
         points = self.model.points
         for _ in range(rounds):
-            angle: dict[int, float] = {}
             tris = np.array(sorted(self.triangles), dtype=np.int64)
             if not len(tris):
                 return
-            ang = triangle_angles(points, corners[tris])
-            for row, t in enumerate(tris):
-                for k, v in enumerate(corners[t]):
-                    angle[int(v)] = angle.get(int(v), 0.0) + float(ang[row, k])
-            sharp = [v for v in {a for a, _ in self.outline()}
-                     if angle.get(v, 360.0) < ROUND_ANGLE_DEG and not self._touches_border(v)]
-            if not sharp:
+            c = corners[tris].astype(np.int64)
+            angle = np.bincount(c.ravel(), weights=triangle_angles(points, c).ravel(), minlength=int(c.max()) + 1)
+            ends = np.array(sorted({a for a, _ in self.outline()}), dtype=np.int64)
+            sharp = ends[angle[ends] < ROUND_ANGLE_DEG]
+            sharp = sharp[~border_nodes(self.model, sharp)]
+            if not len(sharp):
                 return
-            for v in sharp:
+            for v in sharp.tolist():
                 self.triangles |= self.index.node_triangles[v]
-
-    def _touches_border(self, v: int) -> bool:
-        """True if node ``v`` lies on the border of the mesh."""
-        corners = self.model.triangle_table.column("corners")
-        for t in self.index.node_triangles[v]:
-            for w in corners[t]:
-                if int(w) != v and len(self.index.triangles_with_edge(v, int(w))) == 1:
-                    return True
-        return False
 
     def sweep(self, nodes) -> None:
         """Take in the fans of ``nodes``; those on a border of the tissue are deleted too (a sharp
         corner of tissue between the slit and a border goes with the band)."""
-        for v in nodes:
-            v = int(v)
-            if self._touches_border(v):
+        nodes = np.fromiter((int(v) for v in nodes), dtype=np.int64)
+        for v, on_border in zip(nodes.tolist(), border_nodes(model=self.model, nodes=nodes).tolist()):
+            if on_border:
                 self.deleted.add(v)
             self.triangles |= self.index.node_triangles[v]
 

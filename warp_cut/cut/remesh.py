@@ -38,7 +38,7 @@ from .chart import PiecewiseLinearMap, RegionChart
 from .classes import NodeClass, SpringClass
 from .fill import Fill, fill_region
 from .incision import Incision
-from .region import Region
+from .region import Region, border_edges
 from .slit_band import EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand, plan_band
 from .tolerances import (
     CLEARANCE,
@@ -147,7 +147,7 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
     protected = (inc.lip_node_set() | inc.slit_nodes) - provisional
     piece = inc.point_at(u)
     region = Region.around(model, piece, on_tissue, near, clearance(inc), REGION_MARGIN * s, protected, provisional)
-    band = _band(model, inc, u, on_tissue, region, first, near)
+    band = _band(model, inc, u, on_tissue, first, near)
     _add_old_tip(model, inc, region, band)
     if not region.triangles:
         raise SlitDoesNotFit("no tissue around the piece")
@@ -200,7 +200,7 @@ def _check_slit(layout: _Layout, band: SlitBand) -> None:
         raise SlitDoesNotFit(f"the fill does not lay the slit's points {missing} once each")
 
 
-def _band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, region: Region, first: bool,
+def _band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, first: bool,
           near: np.ndarray) -> SlitBand:
     """The event's band: onto the newest live lip pair when the piece starts at it, round the
     start in the incision's first event (or while it has no pair yet), onto the borders of the
@@ -211,11 +211,8 @@ def _band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, region: Re
     start = inc.start_node if inc.start_node >= 0 and active[inc.start_node] else None
     start_possible = pair is None and ((first and inc.starts_on_tissue) or start is not None)
     stations = inc.next_stations(float(u[-1]) - LAST_STATION * inc.spacing)
-    corners = model.triangle_table.column("corners")
-    borders = {(min(a, b), max(a, b)) for t in model.index.triangles_at(near) for a, b in
-               ((int(corners[t][k]), int(corners[t][(k + 1) % 3])) for k in range(3))
-               if region.on_mesh_border(a, b) and not (a in inc.slit_nodes and b in inc.slit_nodes)}
-    borders = sorted(borders)
+    borders = [(a, b) for a, b in border_edges(model, model.index.triangles_at(near)).tolist()
+               if not (a in inc.slit_nodes and b in inc.slit_nodes)]
     return plan_band(inc, u, on_tissue, stations=stations, pair=pair,
                      pair_u=inc.station_u[k] if k >= 0 else 0.0, start=start, start_possible=start_possible,
                      extension=edge_clearance(inc) + inc.lip_offset, margin=LAST_STATION * inc.spacing,
