@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-from ..mesh.geometry import triangle_areas
+from ..mesh.geometry import corner_areas
 from ..sim.material_policy import material_policy
 from ..sim.model_change import ModelChange
 from .classes import NodeClass, SpringClass
@@ -292,7 +292,7 @@ class TopologyEditor:
         a, b, c = (int(v) for v in corners)
         for i, j in ((a, b), (b, c), (c, a)):
             self.add_spring(i, j, positions, edge_class)
-        area = float(triangle_areas(positions[[a, b, c]], [[0, 1, 2]])[0])
+        area = float(corner_areas(positions[[a, b, c]][None])[0])
         slot = int(self.model.triangle_table.append(corners=np.array([[a, b, c]]), area=[area])[0])
         self.index.add_triangle(slot, (a, b, c))
         self._touched.update((a, b, c))

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cross3", "plane_frame", "triangle_angles", "triangle_min_angles", "triangle_areas", "triangle_normals",
+__all__ = ["cross3", "plane_frame", "triangle_angles", "triangle_min_angles", "triangle_areas", "corner_areas",
+           "triangle_normals",
            "half_edges", "edges_of", "edge_keys", "boundary_nodes", "compact_surface", "SLIVER_DEG"]
 
 SLIVER_DEG = 10.0
@@ -208,7 +209,13 @@ def triangle_areas(points, triangles) -> np.ndarray:
     p, tri = _checked(points, triangles)
     if len(tri) == 0:
         return np.zeros(0)
-    return 0.5 * np.linalg.norm(_cross_of_corners(p[tri]), axis=1)
+    return corner_areas(p[tri])
+
+
+def corner_areas(corners: np.ndarray) -> np.ndarray:
+    """Areas [m^2] (t,) of triangles given by their corners [m] (t, 3, 3), unchecked (for
+    callers that made the array themselves: a cut adding one triangle at a time)."""
+    return 0.5 * np.linalg.norm(_cross_of_corners(corners), axis=1)
 
 
 def triangle_normals(points, triangles) -> np.ndarray:
