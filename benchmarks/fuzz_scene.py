@@ -60,11 +60,13 @@ def run_scene_case(name: str, overrides: list[str], reproducer: str, scene_name=
     stroke = KeyframeStroke(path)
     result = run_stroke(sim, stroke, surface, border_keys=original_border(model),
                         settle=scene.duration - stroke.duration)
+    interval, _ = scene.cutting.event_rule(scene.tissue.spacing)  # None: events by the blade's travel
     axis = path.p1[0] - path.p0[0]
     tilt = math.degrees(math.asin(axis[2] / np.linalg.norm(axis)))  # from the patch's plane
     return [{
         "case": name, "stroke": 0, "kind": "scene", "path": "line", "spacing_mm": 1e3 * surface.spacing,
-        "nodes": len(surface.points), "integrator": sim.integrator, "interval_ms": 1e3 * scene.cutting.interval,
+        "nodes": len(surface.points), "integrator": sim.integrator,
+        "interval_ms": "" if interval is None else 1e3 * interval,
         "gravity": True, "length_mm": 1e3 * stroke.length, "tilt_deg": abs(tilt), "radius_mm": 1e3 * stroke.radius,
         "events": result.events, "edits": result.edits, "incisions": result.incisions,
         "unfilled_holes": result.unfilled_holes, "coverage": result.coverage,
