@@ -386,11 +386,6 @@ def test_straight_cut_structure(patch_stroke):
     assert model.spring_count != case.springs_before
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "regression: remesh._classify takes the ends that make a node YELLOW from the event's own "
-    "PieceCut (the tip and start it made: {cut.tip, cut.start}), not from the incision: node 83, "
-    "joined to the start node 151, is YELLOW after the first event and BLUE after the second, "
-    "which re-meshes its fan (start -1 in that event) and joins it to the start again"))
 def test_straight_cut_node_and_spring_classes(patch_stroke):
     """The classes of the between-rows cut as their definitions say (``remesh._classify``,
     recomputed here from the springs): every live node of the slit (``slit_nodes``: lips, start,

@@ -417,7 +417,7 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: _Layou
     on_slit = [node_of[k] for k in _inserted_on_slit(layout, inc.slit_nodes)]
     inc.slit_nodes.update(on_slit)
     cut.lips = sorted(set(cut.lips) | set(on_slit))
-    _classify(editor, cut, inc.slit_nodes)
+    _classify(editor, cut, inc.slit_nodes, {inc.start_node, inc.tip_node} - {-1})
     return cut
 
 
@@ -471,25 +471,31 @@ def _record(inc: Incision, layout: _Layout, node_of: list, gone: list) -> PieceC
     return cut
 
 
-def _classify(editor: TopologyEditor, cut: PieceCut, slit: set[int]) -> None:
+def _classify(editor: TopologyEditor, cut: PieceCut, slit: set[int], ends: set[int]) -> None:
     """The slit's new nodes are lips (with those of earlier events, ``slit``: every node the
-    incision put on its slit); the nodes joined to a lip are blue (yellow where joined to the
-    tip or start); springs along the slit are lip springs, those joining a lip to another node
-    red, the others the fill made green."""
+    incision put on its slit); springs along the slit are lip springs, those joining a lip to
+    another node red, the others the fill made green. Every tissue node a new spring joins to
+    the slit is classed from all its springs: yellow if one joins it to an end of the incision
+    (``ends``: its start and tip now), else blue."""
     pairs = editor.model.spring_table.column("pairs")
     editor.set_node_class(set(cut.lips), NodeClass.LIP)
     lips = set(cut.lips) | set(slit)
-    ends = {cut.tip, cut.start} - {-1}
-    yellow, blue = set(), set()
+    joined = set()
     for slot in editor.report.new_springs:
         a, b = (int(v) for v in pairs[slot])
         if a in lips and b in lips:
             editor.set_spring_class(slot, SpringClass.LIP)
         elif a in lips or b in lips:
             editor.set_spring_class(slot, SpringClass.RED)
-            other, lip = (b, a) if a in lips else (a, b)
-            (yellow if lip in ends else blue).add(other)
+            joined.add(b if a in lips else a)
         else:
             editor.set_spring_class(slot, SpringClass.GREEN)
-    editor.set_node_class(blue - lips, NodeClass.BLUE)
-    editor.set_node_class(yellow - lips, NodeClass.YELLOW)
+    yellow = {v for v in joined if _partners(editor, v) & ends}
+    editor.set_node_class(joined - yellow, NodeClass.BLUE)
+    editor.set_node_class(yellow, NodeClass.YELLOW)
+
+
+def _partners(editor: TopologyEditor, v: int) -> set[int]:
+    """The nodes joined to node ``v`` by a live spring."""
+    pairs = editor.model.spring_table.column("pairs")
+    return {int(w) for slot in editor.index.node_springs[v] for w in pairs[slot] if int(w) != v}
