@@ -520,6 +520,30 @@ def test_cut_from_border_to_border_severs_the_patch():
     assert components(model.node_count, model.springs, live) == 2
 
 
+@pytest.mark.parametrize("offset, joins", [(0.6e-3, True), (1.5e-3, False)])
+def test_a_start_the_swept_disc_reaches_from_an_earlier_wound_starts_in_it(offset, joins):
+    """A second incision started ``offset`` beside the first's start node, cutting away from it
+    with a 1 mm blade: within the blade's radius its start moves onto that node (the swept disc
+    reaches the wound) and, starting in the wound, it joins it - both slits make one border
+    loop; farther off it starts where it was asked to and makes a loop of its own."""
+    model, sim = patch_sim()
+    y = between_rows(model)
+    loops = border_loop_count(model.triangles)
+    cut_along(sim, [[-0.006, y, 0.0], [0.004, y, 0.0]])
+    node = sim.cutter.incisions[0].start_node
+    assert node >= 0 and model.active[node]
+    begin = model.points[node] + np.array([0.0, -offset, 0.0])
+    inc = sim.cutter.start_incision(sim, begin, [0, 0, 1], 0.001)
+    expected = model.points[node] if joins else begin
+    np.testing.assert_allclose(inc.path[0], expected, atol=1e-12)
+    assert inc.starts_on_tissue is (not joins)
+    for k in range(1, 21):
+        sim.cutter.extend_incision(sim, begin + np.array([0.0, -0.0003 * k, 0.0]))
+    sim.cutter.end_incision(sim)
+    assert_valid(sim, "after the second incision")
+    assert border_loop_count(model.triangles) == loops + (1 if joins else 2)
+
+
 def components(node_count, springs, nodes):
     """Number of connected pieces among ``nodes`` through ``springs`` (union-find)."""
     parent = list(range(node_count))

@@ -206,15 +206,31 @@ class Cutter:
     def _begin(self, start: MaterialPoint, crossing: Crossing, sweep_radius: float) -> Incision:
         """A new incision from the material point ``start`` (the blade's ``crossing`` there)."""
         s = self.settings
-        inc = Incision(start.rest, start.normal, spacing=self.spacing,
+        rest = self._joined_start(start.rest, sweep_radius)
+        inc = Incision(rest, start.normal, spacing=self.spacing,
                        lip_offset=s.lip_offset or 0.25 * sweep_radius, tolerance=s.tolerance or 0.1 * self.spacing,
                        contact_point=crossing.point, contact_normal=crossing.normal)
         inc.sweep_radius = float(sweep_radius)
-        inc.starts_on_tissue = self._rest_point_on_tissue(start.rest)
+        inc.starts_on_tissue = self._rest_point_on_tissue(rest)
         self._linked[len(self.incisions)] = set()
         self.incisions.append(inc)
         self.current = inc
         return inc
+
+    def _joined_start(self, rest: np.ndarray, radius: float) -> np.ndarray:
+        """Where a new incision starts [m] (3,): at ``rest``, or at the nearest live node of an
+        earlier incision's slit within ``radius`` [m] of it (the blade's swept disc reaches
+        that wound, so the new slit starts in it and joins it, as a T's stem does)."""
+        best, nearest = None, radius
+        for inc in self.incisions:
+            nodes = np.fromiter((v for v in inc.slit_nodes if self.model.active[v]), dtype=np.int64)
+            if not len(nodes):
+                continue
+            dist = np.linalg.norm(self.model.points[nodes] - rest, axis=1)
+            k = int(np.argmin(dist))
+            if dist[k] < nearest:
+                best, nearest = int(nodes[k]), float(dist[k])
+        return rest if best is None else self.model.points[best].astype(np.float64).copy()
 
     def end_incision(self, sim: CutHost) -> None:
         """Finish the current incision (the next cut starts a new one): its waiting links go to
@@ -298,6 +314,7 @@ class Cutter:
             return  # over an opening, or the blade has not moved on enough: wait
         if inc.turns_back(point.rest):  # a tool lowered with its axis tilted, now travelling
             inc.turn_back()
+            inc.start_at(self._joined_start(inc.path[0], inc.sweep_radius))
             inc.starts_on_tissue = self._rest_point_on_tissue(inc.path[0])
         if inc.retraces(point.rest, inc.sweep_radius):
             return  # back over what is cut (a bouncing skin under a tilted blade)

@@ -215,6 +215,23 @@ class Incision:
             raise InputError("an incision can only turn back before any of it is cut")
         for name in ("path", "normals", "contact_path", "contact_normals"):
             setattr(self, name, getattr(self, name)[::-1])
+        self._path_changed()
+
+    def start_at(self, point) -> None:
+        """Move the start of the path to the rest point ``point`` [m] (3,) while nothing is cut
+        (``uncut``): a start beside an earlier wound that the blade's swept disc reaches is
+        moved into it.
+
+        Raises:
+            InputError: Some of the incision is cut already.
+        """
+        if not self.uncut:
+            raise InputError("an incision's start can only move before any of it is cut")
+        self.path[0] = np.asarray(point, dtype=np.float64).copy()
+        self._path_changed()
+
+    def _path_changed(self) -> None:
+        """Rebuild what is derived from the whole path (chord lengths, the fit, the samples)."""
         self._normal_array = np.array(self.normals)
         self._path_chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.array(self.path), axis=0),
                                                                          axis=1))])

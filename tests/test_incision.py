@@ -1,0 +1,54 @@
+"""warp_cut/cut/incision.py: an incision's path before anything is cut - turned back (a tool
+lowered with its axis tilted) and its start moved (into an earlier wound the blade reaches)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from warp_cut.cut.incision import Incision
+from warp_cut.errors import InputError
+
+SPACING = 2e-3
+
+
+def straight_incision(points) -> Incision:
+    """An uncut incision through ``points`` (k, 3) [m] on the plane z = 0."""
+    inc = Incision(np.asarray(points[0], dtype=float), [0.0, 0.0, 1.0], spacing=SPACING, lip_offset=2.5e-4,
+                   tolerance=0.1 * SPACING)
+    for p in points[1:]:
+        inc.extend(np.asarray(p, dtype=float), 0.0)
+    return inc
+
+
+def test_turn_back_reverses_the_path_and_the_curve_follows():
+    """Turned back, the path runs the other way and the fitted curve starts at its new start
+    and ends at its old one, with the same length (a straight path: exactly)."""
+    points = [[0.001 * k, 0.0, 0.0] for k in range(6)]
+    inc = straight_incision(points)
+    length = inc.length
+    inc.turn_back()
+    np.testing.assert_allclose(np.array(inc.path), np.array(points[::-1]))
+    np.testing.assert_allclose(inc.point_at(np.array([0.0, inc.length])), [points[-1], points[0]], atol=1e-12)
+    assert inc.length == pytest.approx(length, rel=1e-9)
+
+
+def test_start_at_moves_the_start_and_refits_the_curve():
+    """``start_at``: the path's first point is the new one, the curve starts there, and its
+    length is the new path's chord length (a straight path, extended back along itself by 1 mm)."""
+    inc = straight_incision([[0.001 * k, 0.0, 0.0] for k in range(6)])
+    inc.start_at([-0.001, 0.0, 0.0])
+    np.testing.assert_allclose(inc.path[0], [-0.001, 0.0, 0.0])
+    np.testing.assert_allclose(inc.point_at(np.array([0.0]))[0], [-0.001, 0.0, 0.0], atol=1e-12)
+    assert inc.length == pytest.approx(0.006, rel=1e-6)
+
+
+def test_a_cut_incision_neither_turns_back_nor_moves_its_start():
+    """Once some of it is cut (a cut point, a station or a slit node), the path is fixed."""
+    inc = straight_incision([[0.001 * k, 0.0, 0.0] for k in range(6)])
+    inc.cut_point = np.array([0.002, 0.0, 0.0])
+    assert not inc.uncut
+    with pytest.raises(InputError, match="before any of it is cut"):
+        inc.turn_back()
+    with pytest.raises(InputError, match="before any of it is cut"):
+        inc.start_at([-0.001, 0.0, 0.0])
