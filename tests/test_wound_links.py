@@ -11,6 +11,8 @@ numpy, and the side of a straight incision each node lies on (the sign of y).
 import numpy as np
 import pytest
 from conftest import DEVICE
+from hypothesis import given
+from hypothesis import strategies as st
 
 from warp_cut import Material, Simulator, TissueModel
 from warp_cut.cut.incision import Incision
@@ -305,3 +307,22 @@ def test_every_spring_the_cut_separates_leaves_its_link_whatever_the_event_inter
         u_cross = at + 0.006
         nearest = np.argmin(np.abs(u_cross[:, None] - np.array(inc.station_u)[None]), axis=1)
         assert pairs_of(model) == sorted(tuple(sorted((inc.left[k], inc.right[k]))) for k in nearest)
+
+
+_GRID_SPRINGS = OriginalSprings(TissueModel.from_patch((0.05, 0.04), 0.002))
+
+
+@given(lo=st.tuples(*[st.floats(-0.03, 0.03)] * 3), size=st.tuples(*[st.floats(0.0, 0.012)] * 3))
+def test_springs_near_a_box_are_those_of_its_grid_cells(lo, size):
+    """``OriginalSprings.near``: the springs whose midpoint's grid cell lies in the box's cells
+    grown by one, in the grid's sorted order - the same as testing every spring."""
+    springs = _GRID_SPRINGS
+    lo = np.array(lo)
+    hi = lo + np.array(size)
+    mid = 0.5 * (springs.a + springs.b)
+    cells = np.floor(mid / springs.cell).astype(np.int64)
+    k_lo, k_hi = np.floor(lo / springs.cell).astype(np.int64) - 1, np.floor(hi / springs.cell).astype(np.int64) + 1
+    inside = np.all((cells >= k_lo) & (cells <= k_hi), axis=1)
+    got = springs.near(lo, hi)
+    assert set(got.tolist()) == set(np.flatnonzero(inside).tolist())
+    assert np.array_equal(got, springs.order[np.isin(springs.order, got)])  # in the grid's order

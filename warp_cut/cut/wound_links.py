@@ -39,8 +39,9 @@ class OriginalSprings:
         lengths = np.linalg.norm(self.b - self.a, axis=1)
         self.cell = float(max(lengths.max(), 1e-9)) if len(lengths) else 1.0
         keys = self._keys(0.5 * (self.a + self.b))
-        self.order = np.lexsort(keys.T[::-1])
+        self.order = np.lexsort(keys.T[::-1])  # by x cell, then y, then z
         self.sorted_keys = keys[self.order]
+        self._sorted_x = np.ascontiguousarray(self.sorted_keys[:, 0])
 
     def _keys(self, points: np.ndarray) -> np.ndarray:
         return np.floor(points / self.cell).astype(np.int64)
@@ -51,9 +52,12 @@ class OriginalSprings:
         if not len(self.pairs):
             return np.zeros(0, np.int64)
         k_lo, k_hi = self._keys(np.asarray(lo)) - 1, self._keys(np.asarray(hi)) + 1
-        keys = self.sorted_keys
+        # the rows are sorted by x cell first: only the slab of x cells in the box can hold any
+        first = int(np.searchsorted(self._sorted_x, k_lo[0], side="left"))
+        last = int(np.searchsorted(self._sorted_x, k_hi[0], side="right"))
+        keys = self.sorted_keys[first:last]
         inside = np.all((keys >= k_lo) & (keys <= k_hi), axis=1)
-        return self.order[inside]
+        return self.order[first:last][inside]
 
 
 def _crossings(springs: OriginalSprings, piece: np.ndarray, normal: np.ndarray):
