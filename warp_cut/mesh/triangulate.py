@@ -13,7 +13,7 @@ import numpy as np
 from matplotlib.tri import Triangulation
 
 from ..errors import InputError
-from .geometry import triangle_min_angles
+from .geometry import edge_keys, triangle_min_angles
 
 __all__ = ["zip_rows", "lattice", "jitter_lattice", "disk_points", "delaunay", "trim_border_slivers",
            "boundary_edges", "border_loops", "border_loop_count", "topology_problems"]
@@ -139,8 +139,10 @@ def boundary_edges(triangles) -> np.ndarray:
     """Directed edges (e, 2) used by exactly one triangle, in that triangle's winding."""
     tri = np.asarray(triangles, dtype=np.int64)
     directed = tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    key = np.sort(directed, axis=1)
-    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    if not len(directed):
+        return directed
+    key = edge_keys(np.sort(directed, axis=1), int(directed.max()) + 1)  # 1-D keys: a fast unique
+    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
     return directed[counts[inverse.reshape(-1)] == 1]
 
 
