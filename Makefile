@@ -43,7 +43,7 @@ bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[bench]"
 	$(PY) benchmarks/run_all.py
 
-# Cut fuzz (not part of `make test`; about 10 min): random meshes and strokes, every invariant
+# Cut fuzz (not part of `make test`; up to 30 min, where it stops starting new cases): random meshes and strokes, every invariant
 # after every cut event; report in benchmarks/results/fuzz.md (+ fuzz.csv), the named hard cases
 # in fuzz_named.md. A quick look: make fuzz FUZZ_ARGS="--quick --events 300".
 FUZZ_ARGS ?= --events 10000 --seed 1
