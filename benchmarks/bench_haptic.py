@@ -196,6 +196,16 @@ def run(quick: bool = False, cpu: int | None = None, repeats: int = 3):
         return _run(quick, pinned, 1 if quick else repeats)
 
 
+UNPINNED_CUTTING = ("no", "background")
+"""The rows of the unpinned run: the loop alone, and with the cut in a worker at 1 kHz."""
+
+
+def run_unpinned(quick: bool = False, repeats: int = 3):
+    """The loop with the cut in a worker, paced at 1 kHz, not pinned: the loop's thread and the
+    worker go wherever the operating system puts them (results/haptic_unpinned.md)."""
+    return _run(quick, None, 1 if quick else repeats, cuttings=UNPINNED_CUTTING, name="haptic_unpinned")
+
+
 def median_row(runs: list[dict]) -> dict:
     """The median of each numeric column over repeated runs of one configuration, and the
     range of the tick p99 (`tick_p99_range_ms`)."""
@@ -211,14 +221,14 @@ def median_row(runs: list[dict]) -> dict:
     return row
 
 
-def _run(quick: bool, pinned: int | None, repeats: int):
+def _run(quick: bool, pinned: int | None, repeats: int, cuttings=tuple(CUTTING), name: str = "haptic"):
     load_before = os.getloadavg()
     spacings = (0.002,) if quick else (0.002, 0.001)
     ticks = 600 if quick else 2200
     rows = []
     for spacing in spacings:
         for curved in (False, True):
-            for cutting in CUTTING:
+            for cutting in cuttings:
                 row = median_row([tick_run(spacing, curved, cutting, ticks) for _ in range(repeats)])
                 rows.append(row)
                 print(f"  {row['path']} {row['spacing_mm']:g} mm cutting={row['cutting']}: tick p50 "
@@ -226,20 +236,24 @@ def _run(quick: bool, pinned: int | None, repeats: int):
                       f"{row['ticks_over_1ms']} over 1 ms (cpu p99 {row['cpu_p99_ms']:.2f}), "
                       f"force jump {row['force_jump_max_n']:.3g} N", flush=True)
     overhead = [call_overhead(s, chunk=100 if quick else 150, repeats=5 if quick else 11)
-                for s in spacings]
+                for s in spacings] if name == "haptic" else []
     for o in overhead:
         print(f"  per-call / batched at {o['spacing_mm']:g} mm: {o['ratio_wall']:.3f} wall, "
               f"{o['ratio_cpu']:.3f} cpu ({o['per_call_ms']:.3f} vs {o['batched_ms']:.3f} ms)", flush=True)
     load_after = os.getloadavg()
-    write_csv("haptic", rows)
-    write_csv("haptic_call_overhead", overhead)
-    write_markdown("haptic", "Haptic rate: the README's 1 kHz loop", _report(rows, overhead, pinned,
-                                                                         load_before, load_after))
+    write_csv(name, rows)
+    if overhead:
+        write_csv("haptic_call_overhead", overhead)
+    title = "Haptic rate: the README's 1 kHz loop" + ("" if pinned is not None else ", not pinned")
+    write_markdown(name, title, _report(rows, overhead, pinned, load_before, load_after))
     return rows, overhead
 
 
 def _report(rows, overhead, pinned, load_before, load_after) -> str:
-    load = (f"Pinned to CPU {pinned} of {os.cpu_count()}; load average (1, 5, 15 min) "
+    where = (f"Pinned to CPU {pinned} of {os.cpu_count()}" if pinned is not None else
+             f"Not pinned: the loop's thread and the worker run wherever the system puts them on its "
+             f"{os.cpu_count()} CPUs")
+    load = (f"{where}; load average (1, 5, 15 min) "
             f"{', '.join(f'{v:.2f}' for v in load_before)} before and "
             f"{', '.join(f'{v:.2f}' for v in load_after)} after: a load above 1 per core means "
             "other processes shared the CPU, which shows as wall time above CPU time.")
@@ -263,14 +277,19 @@ def _report(rows, overhead, pinned, load_before, load_after) -> str:
         "the loop's share of an event, sending it, receiving and applying its edit, each in a "
         "tick of its own).", load,
         markdown_table(rows, TICK_COLUMNS),
-        "## Per-call overhead, no cutting\n\nSingle-step calls with a new Tool each against one "
-        "`step(n, tool=callable)` call handing out the same Tools (two simulators in lockstep, "
-        "past first contact, roles swapped every sample), median per-step time [ms] of "
-        "interleaved samples, wall and CPU; target ratio <= 1.2.",
-        markdown_table(overhead),
-        "Command: `python benchmarks/bench_haptic.py` (part of `make bench`)."])
+        *(["## Per-call overhead, no cutting\n\nSingle-step calls with a new Tool each against one "
+           "`step(n, tool=callable)` call handing out the same Tools (two simulators in lockstep, "
+           "past first contact, roles swapped every sample), median per-step time [ms] of "
+           "interleaved samples, wall and CPU; target ratio <= 1.2.",
+           markdown_table(overhead)] if overhead else []),
+        "Command: `python benchmarks/bench_haptic.py" + (" --unpinned`." if pinned is None else
+                                                          "` (part of `make bench`).")])
 
 
 if __name__ == "__main__":
-    args = pinned_cli(__doc__, "2 mm only, shorter loops", "runs per row; the table gives medians")
-    run(quick=args.quick, cpu=args.cpu, repeats=args.repeats)
+    args = pinned_cli(__doc__, "2 mm only, shorter loops", "runs per row; the table gives medians",
+                      "the loop alone and with the cut in a worker, not pinned (results/haptic_unpinned.md)")
+    if args.unpinned:
+        run_unpinned(quick=args.quick, repeats=args.repeats)
+    else:
+        run(quick=args.quick, cpu=args.cpu, repeats=args.repeats)

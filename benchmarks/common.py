@@ -92,12 +92,15 @@ def pinned_to(cpu: int | None):
         os.sched_setaffinity(0, before)
 
 
-def pinned_cli(doc: str, quick_help: str, repeats_help: str) -> argparse.Namespace:
-    """The command line of a benchmark pinned to one CPU: --quick, --cpu N, --repeats N (>= 1)."""
+def pinned_cli(doc: str, quick_help: str, repeats_help: str, unpinned_help: str | None = None) -> argparse.Namespace:
+    """The command line of a benchmark pinned to one CPU: --quick, --cpu N, --repeats N (>= 1),
+    and with ``unpinned_help`` also --unpinned."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help=quick_help)
     parser.add_argument("--cpu", type=int, default=None, help="CPU to pin the loop to (default: the last allowed)")
     parser.add_argument("--repeats", type=int, default=3, help=repeats_help)
+    if unpinned_help is not None:
+        parser.add_argument("--unpinned", action="store_true", help=unpinned_help)
     args = parser.parse_args()
     if args.repeats < 1:
         parser.error(f"--repeats must be >= 1, got {args.repeats}")

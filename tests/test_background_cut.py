@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from test_cut_fuzz import cut_cases, make_stroke, make_surface
 
 from warp_cut import Simulator, TissueModel, Tool
-from warp_cut.cut.background import BackgroundCutter
+from warp_cut.cut.background import BackgroundCutter, arrival_positions
 from warp_cut.cut.cut_worker import ANCHORS, ModelEdit, TableEdit, WorkerEvent, motion_anchors
 from warp_cut.cut.settings import CutSettings
 from warp_cut.errors import CutWorkerError, InputError
@@ -361,3 +361,28 @@ def test_an_edit_that_fails_to_apply_stops_the_cut_for_good():
             sim.step(tool=scalpel(k + 2))
     finally:
         sim.close()
+
+
+class _MovedEdit:
+    """An edit whose new nodes have already been moved with their anchors (``positions_now``)."""
+
+    def __init__(self, positions):
+        self.positions = np.asarray(positions, dtype=np.float64)
+
+    def positions_now(self, at_event, now):
+        return self.positions.copy()
+
+
+def test_new_nodes_land_outside_the_tool_as_it_is_when_the_edit_applies():
+    """``arrival_positions``: a new node that would land inside the tool's cylinder (the tool
+    has moved on since the event) is put on its surface, along the perpendicular from the axis;
+    one outside stays where its anchors took it; without a tool nothing moves."""
+    tool = Tool(p0=[0.0, 0.0, -0.005], p1=[0.0, 0.0, 0.005], radius=0.001)  # a vertical cylinder
+    inside, outside = [0.0004, 0.0003, 0.0], [0.003, 0.0, 0.001]
+    edits = [_MovedEdit([inside, outside]), _MovedEdit(np.zeros((0, 3)))]
+    arrived = arrival_positions(edits, np.zeros((1, 3)), np.zeros((1, 3)), tool)
+    np.testing.assert_allclose(arrived[0][0], [0.0008, 0.0006, 0.0], atol=1e-12)  # radius 1 mm along (4, 3)
+    np.testing.assert_allclose(arrived[0][1], outside)
+    assert arrived[1].shape == (0, 3)
+    untouched = arrival_positions(edits, np.zeros((1, 3)), np.zeros((1, 3)), None)
+    np.testing.assert_allclose(untouched[0], [inside, outside])

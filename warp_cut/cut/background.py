@@ -41,6 +41,7 @@ import numpy as np
 import warp as wp
 
 from ..errors import CutWorkerError, InputError
+from ..sim.collision import pushed_out
 from ..sim.model import TissueModel
 from .cut_worker import CutSummary, ModelEdit, SharedPositions, WorkerEvent, serve
 from .events import EventClock
@@ -48,7 +49,7 @@ from .host import CutHost
 from .measures import incision_width
 from .settings import CutSettings
 
-__all__ = ["BackgroundCutter"]
+__all__ = ["BackgroundCutter", "arrival_positions"]
 
 _START_TIMEOUT_S = 120.0
 """How long the worker may take to start (import Warp, load the cut's kernels) [s]."""
@@ -101,6 +102,15 @@ def _worker_cpus() -> set[int] | None:
         return None
     others = set(range(os.cpu_count() or 1)) - os.sched_getaffinity(0)
     return others or None
+
+
+def arrival_positions(edits, at_event: np.ndarray, now: np.ndarray, tool) -> list[np.ndarray]:
+    """Where each edit's new nodes land [m] ((k, 3) per edit): moved as their anchors moved from
+    ``at_event`` to ``now`` (node positions (n, 3) by slot), then, with a ``tool`` (its pose
+    now; None: no tool), put on its surface where they would lie inside it: it has moved on
+    since the event, and a node inside it would be pushed out in one step (a force spike)."""
+    arrived = [edit.positions_now(at_event, now) for edit in edits]
+    return arrived if tool is None else [pushed_out(x, tool) for x in arrived]
 
 
 class BackgroundCutter:
@@ -282,8 +292,8 @@ class BackgroundCutter:
         (edits, summary), self._received = self._received, None
         self.lag_steps.append(self._in_flight + 1)
         try:
-            at_event, now = self._resources.shared.array, sim.state.positions.numpy()
-            arrived = [edit.positions_now(at_event, now) for edit in edits]  # before any slot is reused
+            arrived = arrival_positions(edits, self._resources.shared.array, sim.state.positions.numpy(),
+                                        sim.tool_pose if sim.collision else None)  # before any slot is reused
             for edit, positions in zip(edits, arrived):
                 edit.apply_to(self.model)
                 sim.notify_model_changed(edit.change.with_positions(positions))
