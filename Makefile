@@ -22,8 +22,10 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/warp-cut run --out $(OUT)/demo
 
+# the test files spread over the machine's cores (pytest-xdist), each file's tests on one worker
+# so its module fixtures are made once
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --dist loadfile
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check warp_cut kernels tests benchmarks examples
