@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh.geometry import triangle_angles
+from ..mesh.triangulate import boundary_edges
 from ..sim.topology_index import TopologyIndex
 from .tolerances import ROUND_ANGLE_DEG
 
@@ -52,11 +53,9 @@ def border_edges(model, triangles) -> np.ndarray:
     tris = np.asarray(triangles, dtype=np.int64)
     if not len(tris):
         return np.zeros((0, 2), dtype=np.int64)
-    corners = model.triangle_table.column("corners")[tris]
-    edges = np.sort(corners[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
-    once = unique[counts == 1]  # its other triangle, if any, lies outside ``triangles``: ask the index
-    index = model.index
+    once = np.sort(boundary_edges(model.triangle_table.column("corners")[tris]), axis=1)
+    once = once[np.lexsort((once[:, 1], once[:, 0]))]
+    index = model.index  # an edge once among ``triangles`` may have its other triangle outside them
     keep = [len(index.triangles_with_edge(int(a), int(b))) == 1 for a, b in once]
     return once[np.array(keep, dtype=bool)] if len(once) else once
 
@@ -110,13 +109,8 @@ class Region:
     def outline(self) -> list[tuple[int, int]]:
         """The region's border edges (a, b), directed with the region on their left (each
         appears in one region triangle only; the mesh's counter-clockwise winding)."""
-        if not self.triangles:
-            return []
         tris = np.fromiter(self.triangles, dtype=np.int64, count=len(self.triangles))
-        c = self.model.triangle_table.column("corners")[tris].astype(np.int64)
-        directed = np.stack([c, np.roll(c, -1, axis=1)], axis=2).reshape(-1, 2)  # (c0 c1), (c1 c2), (c2 c0)
-        _, inverse, counts = np.unique(np.sort(directed, axis=1), axis=0, return_inverse=True, return_counts=True)
-        return [(a, b) for a, b in directed[counts[inverse.ravel()] == 1].tolist()]
+        return [(a, b) for a, b in boundary_edges(self.model.triangle_table.column("corners")[tris]).tolist()]
 
     def nodes(self) -> set[int]:
         """Every node of the region's triangles."""
