@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cut.settings import MAX_TRAVEL, CutSettings
+from .cut.settings import MAX_TRAVEL, ONE_EVENT_RULE, CutSettings
 from .errors import InputError, SceneError
 from .mesh.checks import cuttable_problems
 from .sim.bending import flexural_rigidity
@@ -457,8 +457,7 @@ def _parse_cutting(r: _Reader, duration: float) -> CutSettings:
         given["interval"] = r.number(cut_t, "cutting", "interval", low=0, high=duration)
     if "travel" in cut_t:
         if "interval" in cut_t:
-            raise r.error("cutting.travel", "give cutting.interval (events on a clock) or cutting.travel "
-                          "(events by the blade's travel), not both")
+            raise r.error("cutting.travel", ONE_EVENT_RULE)
         given["travel"] = r.number(cut_t, "cutting", "travel", low=0, high=MAX_TRAVEL, low_open=True)
     if "force_threshold" in cut_t:
         given["force_threshold"] = r.number(cut_t, "cutting", "force_threshold", low=0, high=1e6)

@@ -8,13 +8,16 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["CutSettings", "DEFAULT_TRAVEL", "MAX_TRAVEL"]
+__all__ = ["CutSettings", "DEFAULT_TRAVEL", "MAX_TRAVEL", "ONE_EVENT_RULE"]
 
 DEFAULT_TRAVEL = 1.0
 """Default travel between cut events, in lip spacings (``benchmarks/results/event_travel.md``)."""
 MAX_TRAVEL = 4.0
 """Largest travel between cut events [lip spacings]: farther, several stations fall due in one
 event and the slit trails the blade by more than it opens in one."""
+ONE_EVENT_RULE = ("give cutting.interval (events on a clock) or cutting.travel (events by the blade's travel), "
+                  "not both")
+"""Why settings with both event rules are refused."""
 
 
 @dataclass(frozen=True)
@@ -62,8 +65,7 @@ class CutSettings:
         if self.travel is not None and not (np.isfinite(self.travel) and 0 < self.travel <= MAX_TRAVEL):
             raise InputError(f"cutting.travel must be in (0, {MAX_TRAVEL:g}] lip spacings, got {self.travel}")
         if self.interval is not None and self.travel is not None:
-            raise InputError("give cutting.interval (events on a clock) or cutting.travel (events by the "
-                             "blade's travel), not both")
+            raise InputError(ONE_EVENT_RULE)
         if not (np.isfinite(self.force_threshold) and self.force_threshold >= 0):
             raise InputError(f"cutting.force_threshold must be >= 0 N, got {self.force_threshold}")
         for name in ("worker", "keep_islands"):
