@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from warp_cut.cut.incision import Incision
+from warp_cut.cut.incision import Incision, polyline_distance
 from warp_cut.errors import InputError
 
 SPACING = 2e-3
@@ -52,3 +52,24 @@ def test_a_cut_incision_neither_turns_back_nor_moves_its_start():
         inc.turn_back()
     with pytest.raises(InputError, match="before any of it is cut"):
         inc.start_at([-0.001, 0.0, 0.0])
+
+
+def test_the_curve_stays_near_crossings_a_spacing_apart_on_tight_arcs():
+    """Crossings a spacing apart on half circles of 5-10 spacings' radius, each jittered across
+    by up to half the tolerance, added one at a time (as events by travel add them): after every
+    extension the curve lies within 1.1 tolerances of the polyline through the crossings, also
+    where the refitted tail joins the part frozen before (a joining handle too long for the new
+    piece once bulged the curve out by up to 1.85 tolerances between two crossings)."""
+    spacing, tol = 2e-3, 2e-4
+    for seed in range(30):
+        rng = np.random.default_rng(seed)
+        radius = rng.uniform(5.0, 10.0) * spacing
+        angles = np.arange(0.0, np.pi, spacing / radius)
+        r = radius + rng.uniform(-0.5, 0.5, len(angles)) * tol
+        points = np.column_stack([r * np.sin(angles), radius - r * np.cos(angles), np.zeros_like(angles)])
+        inc = Incision(points[0], [0, 0, 1], spacing=spacing, lip_offset=2.5e-4, tolerance=tol)
+        for k, p in enumerate(points[1:], start=2):
+            assert inc.extend(p, 0.0)
+            dense = inc.point_at(np.linspace(0.0, inc.length, 400))
+            off = polyline_distance(dense, points[:k]).max()
+            assert off <= 1.1 * tol, f"seed {seed}, {k} crossings: the curve {off / tol:.2f} tolerances off"

@@ -5,8 +5,9 @@ and carries that crossing into the rest (material) shape through the triangle it
 (``warp_cut.cut.material_point``). The incision keeps both: ``path`` (rest points [m], each with
 the rest surface's outward normal there), which the curve is fitted to, and ``contact_path``
 (the crossings where the skin was, each with its normal), which the lips are judged against.
-The curve is a C1 chain of cubic Bezier segments fitted to ``path`` within ``tolerance`` (paper
-Eq. 5-8, ``warp_cut.cut.bezier``); its end point is the latest crossing, so the incision's end
+The curve is a chain of cubic Bezier segments fitted to ``path`` within ``tolerance`` (paper
+Eq. 5-8, ``warp_cut.cut.bezier``): C1 within a fit, tangent-continuous (G1) where the refitted
+tail joins the part frozen before; its end point is the latest crossing, so the incision's end
 follows the tool.
 
 The incision is a slit with two lips. Its stations are arc lengths u along the curve, one every
@@ -253,21 +254,25 @@ class Incision:
         return bool(np.min(np.linalg.norm(lateral, axis=1)) < radius)
 
     def _fit_from(self, start: int, stop: int) -> np.ndarray | None:
-        """Controls fitting path[start:stop] and joining the frozen part C1 (None if the
-        joined fit misses the tolerance)."""
+        """Controls fitting path[start:stop] and joining the frozen part with one tangent (G1:
+        the new piece's first handle turned onto the frozen part's last tangent, its own length
+        kept, so a short piece after a long frozen segment does not overshoot); None if the
+        joined fit misses the tolerance at the path's points or halfway between them."""
         pts = np.array(self.path[start:stop])
         ctrl = fit_chain(pts, self.tolerance).controls.copy()
         if len(self._frozen):
             last = self._frozen[-1]
-            ctrl[0, 1] = ctrl[0, 0] + (last[3] - last[2])  # equal derivatives at the join
-            if len(pts) > 2 and _max_distance(pts, BezierChain(ctrl)) > self.tolerance:
+            handle = float(np.linalg.norm(ctrl[0, 1] - ctrl[0, 0]))
+            ctrl[0, 1] = ctrl[0, 0] + handle * _unit(last[3] - last[2])
+            between = np.concatenate([pts, 0.5 * (pts[1:] + pts[:-1])])
+            if len(pts) > 2 and _max_distance(between, BezierChain(ctrl)) > self.tolerance:
                 return None
         return ctrl
 
     def _refit(self) -> BezierChain:
         """Refit the tail of the path only: once the unfrozen tail spans more than eight
         station spacings, all but its last four are frozen, so the cost of an extension does
-        not grow with the incision. Falls back to one fit of the whole path if a C1 join
+        not grow with the incision. Falls back to one fit of the whole path if the join
         cannot meet the tolerance."""
         n = len(self.path)
         tail = np.array(self.path[self._tail_start:])
