@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from warp_cut.cut.incision import Incision
 from warp_cut.cut.slit_band import EXTENSION, JUNCTION, START, TIP, plan_band
-from warp_cut.cut.tolerances import SNAP
+from warp_cut.cut.tolerances import FIRST_STATION, SNAP
 
 S = 2e-3          # station spacing [m]
 W = 1e-3          # lip offset [m]
@@ -100,18 +100,24 @@ def test_a_slit_continued_from_its_newest_lip_pair_closes_onto_that_pair():
 def test_a_slit_whose_blade_entered_in_an_opening_reaches_back_into_it():
     """No pair and no start allowed (the blade entered in an earlier wound; its first samples,
     to 2 mm, over the opening, no border near): the ring's back end is two extension points
-    ``extension`` behind the first sample on the tissue, at +-lip offset, and no station lies
-    within ``margin`` of that sample."""
+    ``extension`` behind the first sample on the tissue, at +-lip offset; the run's stations are
+    its own, as an incision's first run has: from FIRST_STATION spacings past that sample, one
+    a spacing, up to ``margin`` short of the tip (the stations given are for a run going on from
+    the slit cut before)."""
     inc = straight()
     u = samples()
     on = u > 2e-3 + 1e-12
     ua = u[on][0]
-    run = band_of(inc, u, on, start_possible=False).runs[0]
+    band = band_of(inc, u, on, start_possible=False)
+    run = band.runs[0]
     assert (run[0].station, run[-1].station) == (EXTENSION, EXTENSION)
     assert ring_xy(run)[[0, -1]] == pytest.approx(np.array([[ua - 1.5e-3, W], [ua - 1.5e-3, -W]]))
+    expected = ua + FIRST_STATION * S + S * np.arange(4)
+    expected = expected[expected <= LENGTH - 1e-3 + 1e-12]
+    assert band.stations == pytest.approx(expected)
     lips = [p for p in run if p.station >= 0]
-    assert lips and all(p.u > ua + 1e-3 for p in lips)
-    assert [p.station for p in lips] == [1, 2, 3, 3, 2, 1]  # not the one at 2 mm: too near
+    assert [p.station for p in lips] == list(range(len(expected))) + list(range(len(expected)))[::-1]
+    assert all(p.u > ua + 1e-3 for p in lips)
 
 
 # ----------------------------------------------------------------------------- openings
@@ -129,7 +135,9 @@ def test_a_slit_over_an_opening_in_the_middle_is_two_runs_that_reach_into_it():
     ub, ua = u[19], u[30]
     assert [p.station for p in first] == [START, 0, EXTENSION, EXTENSION, 0]
     assert ring_xy(first)[2:4] == pytest.approx(np.array([[ub + 1.5e-3, W], [ub + 1.5e-3, -W]]))
-    assert [p.station for p in second] == [EXTENSION, 3, TIP, 3, EXTENSION]
+    assert band.stations[:1] == pytest.approx([0.002])  # the given station the first run holds
+    assert band.stations[1:] == pytest.approx([ua + FIRST_STATION * S])  # the second run's own
+    assert [p.station for p in second] == [EXTENSION, 1, TIP, 1, EXTENSION]
     assert ring_xy(second)[[0, -1]] == pytest.approx(np.array([[ua - 1.5e-3, W], [ua - 1.5e-3, -W]]))
     for run in band.runs:
         assert shapely.Polygon(ring_xy(run)).is_valid and signed_area(ring_xy(run)) < 0
@@ -296,3 +304,23 @@ def test_every_run_is_a_clockwise_ring_of_paired_lips_away_from_the_openings(on,
         xy = ring_xy(run)
         if abs(signed_area(xy)) > 1e-12:
             assert shapely.Polygon(xy).is_valid and signed_area(xy) < 0
+
+
+# ----------------------------------------------------------------------------- waiting past an opening
+
+def test_a_run_past_an_opening_too_short_for_a_lip_pair_waits():
+    """samples_to_cut: an event cuts all its samples, except that a last run which comes from an
+    opening and reaches the tip shorter than ``least`` is left for a later event (the cut stops
+    at the last sample over the opening); a run that begins the piece, is long enough, or ends
+    in an opening is cut."""
+    from warp_cut.cut.slit_band import samples_to_cut
+
+    u = samples(51)  # 0.2 mm apart
+    on = np.ones(len(u), bool)
+    assert samples_to_cut(u, on, 3e-3) == len(u)           # one run from the piece's start
+    on[10:30] = False                                       # an opening from 2 to 5.8 mm
+    assert samples_to_cut(u, on, 3e-3) == len(u)           # past it 4 mm of tissue: long enough
+    assert samples_to_cut(u, on, 4.1e-3) == 30              # not enough: stop before the run
+    on[45:] = False                                         # the tip in an opening: no tip run
+    assert samples_to_cut(u, on, 4.1e-3) == len(u)
+    assert samples_to_cut(u, np.zeros(len(u), bool), 1e-3) == len(u)  # nothing on the tissue

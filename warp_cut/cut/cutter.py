@@ -52,7 +52,8 @@ from .region import border_edges, distance_to_segments
 from .remesh import PieceCut, SlitDoesNotFit, clearance, cut_piece, edge_clearance
 from .settings import CutSettings
 from .surface import Crossing
-from .tolerances import LAST_STATION, MIN_ADVANCE, VOID_REACH
+from .slit_band import samples_to_cut
+from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE, VOID_REACH
 from .topology import NodePositions, TopologyEditor
 from .wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
@@ -362,6 +363,11 @@ class Cutter:
         on_tissue = self._on_triangles_at(piece, near, edge_clearance(inc), inc.slit_nodes)
         if tool is not None and not on_tissue[-1]:
             return False  # the tip would lie in an opening: wait till the blade is through it
+        if tool is not None:  # a run past an opening waits until it can hold a lip pair
+            keep = samples_to_cut(u, on_tissue, (FIRST_STATION + LAST_STATION) * self.spacing)
+            if keep == 0:
+                return False
+            u, piece, on_tissue = u[:keep], piece[:keep], on_tissue[:keep]
         if not on_tissue.any():
             inc.cut_point = piece[-1].copy()  # all of it over an opening: nothing to cut
             return False

@@ -29,9 +29,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .incision import Incision
-from .tolerances import SNAP
+from .tolerances import FIRST_STATION, SNAP
 
-__all__ = ["BandPoint", "SlitBand", "plan_band", "EXTENSION", "TIP", "START", "JUNCTION"]
+__all__ = ["BandPoint", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION"]
 
 TIP, START, EXTENSION, JUNCTION = -2, -1, -3, -5
 """``BandPoint.station`` of the tip, the start, an extension point, and a point where a lip line
@@ -55,7 +55,7 @@ class BandPoint:
 class SlitBand:
     """The band of one event: its runs (each a closed ring of ``BandPoint``, the band on the
     right of the ring: left lip up, right lip down) and the arc lengths [m] of the stations its
-    lips belong to."""
+    lips belong to (``BandPoint.station`` indexes them), increasing."""
 
     runs: list = field(default_factory=list)
     stations: list = field(default_factory=list)
@@ -76,6 +76,22 @@ def _runs(on_tissue: np.ndarray) -> list[tuple[int, int]]:
     if start is not None:
         out.append((start, len(on_tissue) - 1))
     return out
+
+
+def samples_to_cut(u: np.ndarray, on_tissue: np.ndarray, least: float) -> int:
+    """How many of an event's samples ``u`` (k,) [m] (``on_tissue`` (k,) bool) to cut while the
+    blade is still in the skin: all of them, or those before the last run when that run comes
+    from an opening (it does not begin the piece) and reaches the tip shorter than ``least`` [m]:
+    such a run could hold no lip pair, and a slit from an opening without one is a wedge the
+    next event cannot go on from. The cut then stops in the opening and the run waits for the
+    blade to be further on."""
+    runs = _runs(np.asarray(on_tissue, dtype=bool))
+    if not runs:
+        return len(u)
+    first, last = runs[-1]
+    if first == 0 or last != len(u) - 1 or u[last] - u[first] >= least:
+        return len(u)
+    return first
 
 
 def _point(inc: Incision, u: float, side: int, station: int, node: int = -1) -> BandPoint:
@@ -208,11 +224,19 @@ def _junction(inc: Incision, u0: float, direction: int, reach: float, borders, p
     return left_point, chain, right_point
 
 
+def _stations_from(first: float, upto: float, spacing: float) -> list[float]:
+    """Arc lengths [m] every ``spacing`` from ``first`` up to ``upto``."""
+    count = int(np.floor((upto - first) / spacing + 1e-9)) + 1
+    return [first + spacing * k for k in range(max(0, count))]
+
+
 def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: list[float],
               pair: tuple[int, int] | None, pair_u: float, start: int | None, start_possible: bool,
               extension: float, margin: float, points: np.ndarray, borders=()) -> SlitBand:
     """The band of an event cutting ``inc`` along the samples ``u`` (k,) [m] (the last one the
-    tip's), ``on_tissue`` (k,) bool; ``stations``: arc lengths of the new stations; ``pair``:
+    tip's), ``on_tissue`` (k,) bool; ``stations``: arc lengths of the new stations of a run
+    that goes on from the slit cut before or its start (a run from an opening has its own, from
+    ``FIRST_STATION`` spacings past its first sample, as the incision's first run has); ``pair``:
     the incision's newest live lip pair (left, right) at ``pair_u`` [m], which the band closes
     onto when its first run starts at the piece's start, else None; ``start``: the start node
     (None: a new one, where the run starts at the incision's start and ``start_possible``);
@@ -220,12 +244,13 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
     no lip nearer an opening end than this [m]; ``points``: rest positions by node slot [m];
     ``borders``: node pairs (e, 2) of the tissue's border edges near (the incision's own slit
     left out), where a run's end in an opening meets them."""
-    band = SlitBand(stations=list(stations))
+    band = SlitBand()
     for first, last in _runs(np.asarray(on_tissue, dtype=bool)):
         if first == last and 0 < first < len(u) - 1 or (first == last == 0 and pair is None and not start_possible):
             continue  # one sample between openings: no length of tissue to open
         ua, ub = float(u[first]), float(u[last])
         left, right = [], []
+        wanted = stations
         if first == 0 and pair is not None:  # closes onto the slit cut before
             left.append(BandPoint(points[pair[0]], 1, -4, pair_u, pair[0]))
             right.append(BandPoint(points[pair[1]], -1, -4, pair_u, pair[1]))
@@ -245,9 +270,12 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
                 right.append(meet_right)
                 left[:0] = [BandPoint(points[w], 0, JUNCTION, ua, w) for w in chain]
             lo = ua + margin
+            wanted = _stations_from(ua + FIRST_STATION * inc.spacing, ub - margin, inc.spacing)
         hi = ub if last == len(u) - 1 else ub - margin
-        for k, s in enumerate(stations):
+        for s in wanted:
             if lo < s <= hi + 1e-12:
+                k = len(band.stations)
+                band.stations.append(float(s))
                 left.append(_point(inc, s, 1, k))
                 right.append(_point(inc, s, -1, k))
         if last == len(u) - 1:  # the tip
