@@ -588,6 +588,36 @@ def test_crossing_an_earlier_cut_and_restarting():
     assert len(cutter.incisions) == restarted + 1  # a new start is a new incision
 
 
+@pytest.mark.parametrize("exit_x", [0.0040, 0.0048, 0.0056])
+def test_a_blade_lifted_out_between_two_events_cuts_up_to_where_it_left(exit_x):
+    """Events come a lip spacing of the tip's travel apart (the default), so a blade that rises
+    out of the skin as it goes may leave it up to a spacing after the last event: the incision
+    still reaches where the blade last crossed the skin (the exit point, where the rising tip
+    meets the surface) within the least advance an event cuts, and so does its slit."""
+    model, sim = patch_sim(size=(0.03, 0.02))
+    tilt, speed, depth, y = math.radians(60.0), 0.02, 1e-3, 0.0007
+    axis = np.array([-math.cos(tilt), 0.0, math.sin(tilt)])
+    x_in, lowering = -0.006, 0.05
+
+    def pose(t):
+        if t < lowering:  # lowered along z onto the path's start
+            tip = np.array([x_in, y, 0.004 - (depth + 0.004) * t / lowering])
+        else:  # along +x, rising at 45 deg so that the tip comes out of the skin at exit_x
+            x = x_in + speed * (t - lowering)
+            tip = np.array([x, y, -depth + max(0.0, x - (exit_x - depth))])
+        return Tool(tip, tip + 0.04 * axis, 5e-4)
+
+    for _ in range(int((lowering + (exit_x + 0.004 - x_in) / speed) / 1e-3)):
+        sim.step(tool=pose)
+    sim.step(tool=None)
+    assert len(sim.cutter.incisions) == 1
+    inc = sim.cutter.incisions[0]
+    reach = MIN_ADVANCE * SPACING
+    assert inc.path[-1][0] == pytest.approx(exit_x, abs=reach)
+    assert inc.cut_point[0] == pytest.approx(exit_x, abs=reach)
+    assert_valid(sim, "after the blade left")
+
+
 # ------------------------------------------------------------------ stable step of a cut mesh
 def stiffness_matrix(model, x):
     """Dense stiffness K = -dF/dx (3n, 3n) [N/m] of the live springs and residual links at

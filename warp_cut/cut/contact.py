@@ -5,8 +5,9 @@ The ``Cutter`` asks them at every cut event:
 * where the tool's axis crosses the current, deformed skin around it (``contact``;
   ``warp_cut.cut.surface.locate_crossing``), among the live nodes near the tool (a Warp kernel
   finds them, one thread per node slot);
-* whether an incision may start there (``can_start``) and where the blade entered among the
-  poses since the previous event (``first_crossing``);
+* whether an incision may start there (``can_start``), and where the blade entered or last
+  crossed the skin among the poses since the previous event (``first_crossing``,
+  ``last_crossing``);
 * with no skin at the axis, whether the tool is still in the tissue: in the opening its own
   incision made (``in_own_opening``), or through an earlier one (``through_an_opening``);
 * whether the tool is being drawn out of the wound the last incision cut (``drawn_out``).
@@ -124,6 +125,21 @@ class BladeContact:
                 lo = mid + 1
             else:
                 found, hi = (hit, poses[mid]), mid - 1
+        return found
+
+    def last_crossing(self, poses: list[Tool], x: np.ndarray, rest: np.ndarray,
+                      corners: np.ndarray) -> tuple[Crossing, Tool] | None:
+        """(the crossing, the pose) of the latest of ``poses`` whose blade is in the skin, the
+        skin's nodes at ``x`` (rest positions ``rest``) (k, 3) [m] with the triangles' corners
+        ``corners`` (m, 3, 3) [m] (binary search: the tool leaves once between two events)."""
+        lo, hi, found = 0, len(poses) - 1, None
+        while lo <= hi:
+            mid = (lo + hi) // 2
+            hit = self.locate(poses[mid], x, rest, corners)
+            if hit is not None and hit.inside:
+                found, lo = (hit, poses[mid]), mid + 1
+            else:
+                hi = mid - 1
         return found
 
     def in_own_opening(self, inc: Incision, tool: Tool) -> bool:

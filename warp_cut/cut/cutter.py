@@ -140,20 +140,39 @@ class Cutter:
             if not self.contact.drawn_out(self.incisions, poses, tip_before):
                 self._start_where_the_blade_entered(sim, poses)
             return
-        self._follow(sim, tool)
+        self._follow(sim, tool, poses)
 
-    def _follow(self, sim: CutHost, tool: Tool) -> None:
+    def _follow(self, sim: CutHost, tool: Tool, poses: list[Tool]) -> None:
         """One event of the incision in progress: extend it to where the blade is now, wait
-        (over an opening, just above the skin), or end it (the tool has left the skin)."""
+        (over an opening, just above the skin), or end it (the tool has left the skin). Once
+        the blade is out of the skin, the incision reaches where it last crossed it among
+        ``poses``, the steps' tool poses since the last event."""
         contact = self.contact
         crossing, skin = contact.contact(sim, tool, self._positions_view(sim))
         if crossing is None and (contact.in_own_opening(self.current, tool)
                                  or contact.through_an_opening(self.current, tool, skin)):
             return  # no skin around the axis, but the blade is still down in the tissue: wait
+        if crossing is not None and crossing.inside:
+            self._extend(sim, crossing, tool)
+            return
+        self._follow_to_exit(sim, poses[:-1])  # the blade has come out of the skin since the last event
         if crossing is None or crossing.tip_height > contact.exit_margin:
             self.end_incision(sim)  # the tool has left the skin: this incision is complete
-        elif crossing.inside:
-            self._extend(sim, crossing, tool)
+
+    def _follow_to_exit(self, sim: CutHost, poses: list[Tool]) -> None:
+        """Carry the incision's path on to the last of ``poses`` whose blade was in the skin:
+        events come a travel apart, so the blade may have cut up to that much further before it
+        left (``end_incision`` then cuts it)."""
+        if not poses:
+            return
+        x = self._positions_view(sim)
+        nodes, _, corners = self.contact.skin_near(sim, poses[-1], x)
+        found = self.contact.last_crossing(poses, x[nodes], self.model.points[nodes], corners)
+        point = None if found is None else self._point_ahead(sim, *found)
+        if point is not None:
+            crossing = found[0]
+            self.current.extend(point.rest, 0.0, point.normal, contact_point=crossing.point,
+                                contact_normal=crossing.normal)
 
     def catch_up(self, poses: list[Tool]) -> None:
         """Take the tool poses of steps whose ``after_step`` this cutter did not see (a cutter
@@ -309,20 +328,30 @@ class Cutter:
     def _extend(self, sim: CutHost, crossing: Crossing, tool: Tool | None) -> None:
         """Extend the current incision to the blade's ``crossing`` and cut the new piece."""
         t0 = time.perf_counter()
+        point = self._point_ahead(sim, crossing, tool)
+        if point is None:
+            return
+        t1 = time.perf_counter()
+        inc = self.current
+        inc.extend(point.rest, 0.0, point.normal, contact_point=crossing.point, contact_normal=crossing.normal)
+        t2 = time.perf_counter()
+        self._cut(sim, inc, tool, inc.length - self._behind_the_blade(inc, tool), (t0, t1, t2))
+
+    def _point_ahead(self, sim: CutHost, crossing: Crossing, tool: Tool | None) -> MaterialPoint | None:
+        """The material point of the blade's ``crossing`` if the current incision goes on to it;
+        None (wait) over an opening, when the blade has not moved on enough, or when it is back
+        over what is cut. A lowered tool's incision turns back here first (``turn_back``)."""
         inc = self.current
         point = self._material(sim, crossing, tool)
         if point is None or np.linalg.norm(point.rest - inc.path[-1]) < MIN_ADVANCE * self.spacing:
-            return  # over an opening, or the blade has not moved on enough: wait
+            return None  # over an opening, or the blade has not moved on enough: wait
         if inc.turns_back(point.rest):  # a tool lowered with its axis tilted, now travelling
             inc.turn_back()
             inc.start_at(self._joined_start(inc.path[0], inc.sweep_radius))
             inc.starts_on_tissue = self._rest_point_on_tissue(inc.path[0])
         if inc.retraces(point.rest, inc.sweep_radius):
-            return  # back over what is cut (a bouncing skin under a tilted blade)
-        t1 = time.perf_counter()
-        inc.extend(point.rest, 0.0, point.normal, contact_point=crossing.point, contact_normal=crossing.normal)
-        t2 = time.perf_counter()
-        self._cut(sim, inc, tool, inc.length - self._behind_the_blade(inc, tool), (t0, t1, t2))
+            return None  # back over what is cut (a bouncing skin under a tilted blade)
+        return point
 
     def _behind_the_blade(self, inc: Incision, tool: Tool | None) -> float:
         """How far behind the blade's crossing [m] the slit's tip stays while the tool cuts: its
