@@ -39,7 +39,7 @@ from .classes import NodeClass, SpringClass
 from .fill import Fill, fill_region
 from .incision import Incision
 from .region import Region, border_edges
-from .slit_band import EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand, plan_band
+from .slit_band import CUT_BEFORE, EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand, plan_band
 from .tolerances import (
     CLEARANCE,
     LAST_STATION,
@@ -48,6 +48,7 @@ from .tolerances import (
     MERGE,
     MIN_ANGLE_DEG,
     MIN_EDGE,
+    OLD_END_CLEARANCE,
     REFINE_ANGLE_DEG,
     REGION_MARGIN,
 )
@@ -148,11 +149,13 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
     piece = inc.point_at(u)
     region = Region.around(model, piece, on_tissue, near, clearance(inc), REGION_MARGIN * s, protected, provisional)
     band = _band(model, inc, u, on_tissue, first, near)
-    _add_old_tip(model, inc, region, band)
+    old_tip = _add_old_tip(model, inc, region, band)
     if not region.triangles:
         raise SlitDoesNotFit("no tissue around the piece")
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
     chart = RegionChart.of_triangles(model.points[corners])
+    if old_tip is not None:
+        _clear_of_old_tip(band, old_tip, inc, chart, OLD_END_CLEARANCE * s)
     wedges: list = []
     for growth in range(MAX_GROWTH + 1):
         layout = _lay_out(model, inc, region, band, chart, wedges)
@@ -219,13 +222,14 @@ def _band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, first: boo
                      points=model.points, borders=borders)
 
 
-def _add_old_tip(model, inc: Incision, region: Region, band: SlitBand) -> None:
+def _add_old_tip(model, inc: Incision, region: Region, band: SlitBand) -> list | None:
     """Add to the band the end of the slit cut before, past its newest lip pair: the slit's
     outline from the left lip of that pair round the old tip to the right one (a polygon of
-    nodes), so that band and old slit join without a sliver of tissue between them."""
+    nodes), so that band and old slit join without a sliver of tissue between them. Returns
+    that run (None: no pair, or no such outline)."""
     k = inc.last_pair(model.active)
     if k < 0:
-        return
+        return None
     left, right = inc.left[k], inc.right[k]
     following = {}
     for a, b in region.outline():
@@ -234,11 +238,38 @@ def _add_old_tip(model, inc: Incision, region: Region, band: SlitBand) -> None:
     while v != right and len(chain) <= len(following) + 1:
         nexts = [w for w in following.get(v, []) if w in inc.slit_nodes or w == right]
         if not nexts:
-            return
+            return None
         v = nexts[0]
         chain.append(v)
-    if v == right and len(chain) >= 3:
-        band.runs.append([BandPoint(model.points[w], 0, -4, 0.0, w) for w in chain])
+    if v != right or len(chain) < 3:
+        return None
+    run = [BandPoint(model.points[w], 0, CUT_BEFORE, 0.0, w) for w in chain]
+    band.runs.append(run)
+    return run
+
+
+def _clear_of_old_tip(band: SlitBand, old_run: list, inc: Incision, chart: RegionChart, margin: float) -> None:
+    """Keep the new lips out of the end of the slit cut before (``old_run``, the old tip's
+    outline): the curve, refitted as the blade moved on, can run a little to one side of the
+    curve the old tip was cut along, and a lip in that opening would be no node of the tissue
+    left. Such a lip moves out across the curve until it lies ``margin`` [m] outside the
+    opening, by up to a lip offset (one that cannot stays: the fill then refuses the slit and
+    a later event tries again, ``_check_slit``). Leaving the station out instead would lengthen
+    the slit's end without a lip pair, and a longer end catches the next stations' lips."""
+    opening = shapely.Polygon(chart.to2d(np.array([p.rest for p in old_run]))).buffer(margin)
+    steps = np.linspace(0.0, inc.lip_offset, 11)[1:]
+    for run in band.runs:
+        if run is old_run:
+            continue
+        for k, p in enumerate(run):
+            if p.station < 0 or p.node >= 0 or not opening.contains(shapely.Point(chart.to2d(p.rest))):
+                continue
+            across = p.rest - inc.point_at(p.u)[0]
+            across /= max(float(np.linalg.norm(across)), 1e-300)
+            moved = [p.rest + d * across for d in steps]
+            clear = [x for x in moved if not opening.contains(shapely.Point(chart.to2d(x)))]
+            if clear:
+                run[k] = BandPoint(clear[0], p.side, p.station, p.u, p.node)
 
 
 def _edge_of(ids: list, edge: tuple[int, int]) -> tuple[int, int]:

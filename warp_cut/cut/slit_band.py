@@ -31,11 +31,13 @@ import numpy as np
 from .incision import Incision
 from .tolerances import FIRST_STATION, SNAP
 
-__all__ = ["BandPoint", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION"]
+__all__ = ["BandPoint", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION",
+           "CUT_BEFORE"]
 
-TIP, START, EXTENSION, JUNCTION = -2, -1, -3, -5
-"""``BandPoint.station`` of the tip, the start, an extension point, and a point where a lip line
-meets a border or a border node the band's end runs through (lips: the station's index)."""
+TIP, START, EXTENSION, CUT_BEFORE, JUNCTION = -2, -1, -3, -4, -5
+"""``BandPoint.station`` of the tip, the start, an extension point, a node of the slit cut before
+(the newest lip pair, the old tip's outline), and a point where a lip line meets a border or a
+border node the band's end runs through (lips: the station's index)."""
 
 
 @dataclass(frozen=True)
@@ -252,8 +254,8 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
         left, right = [], []
         wanted = stations
         if first == 0 and pair is not None:  # closes onto the slit cut before
-            left.append(BandPoint(points[pair[0]], 1, -4, pair_u, pair[0]))
-            right.append(BandPoint(points[pair[1]], -1, -4, pair_u, pair[1]))
+            left.append(BandPoint(points[pair[0]], 1, CUT_BEFORE, pair_u, pair[0]))
+            right.append(BandPoint(points[pair[1]], -1, CUT_BEFORE, pair_u, pair[1]))
             lo = pair_u
         elif first == 0 and ua <= 1e-12 and start_possible:  # the incision's start
             left.append(_point(inc, 0.0, 0, START, -1 if start is None else start))

@@ -71,3 +71,8 @@ rounding, and a corner cut off a band moves them by more than the rounding grid.
 
 MIN_EDGE = 0.01
 """Shortest edge the refinement may make [x s]."""
+
+OLD_END_CLEARANCE = 0.02
+"""Least distance [x s] of a new lip from the end of the slit cut before (past its newest lip
+pair): a lip nearer, or in that opening (the refitted curve can run a little to one side of
+the curve the old end was cut along), moves out across the curve (``remesh``)."""
