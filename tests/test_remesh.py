@@ -31,7 +31,8 @@ def point(x, y, station, side=0, u=0.0, node=-1) -> BandPoint:
 def old_end() -> list:
     """The slit cut before, past its pair (nodes 1, 2 at x = 4 mm): round an old tip at
     (7, -0.15) mm."""
-    return [point(4, 0.25, CUT_BEFORE, node=1), point(7, -0.15, CUT_BEFORE, node=3), point(4, -0.25, CUT_BEFORE, node=2)]
+    return [point(4, 0.25, CUT_BEFORE, node=1), point(7, -0.15, CUT_BEFORE, node=3),
+            point(4, -0.25, CUT_BEFORE, node=2)]
 
 
 def band_with_station_at_6mm() -> tuple[SlitBand, list]:

@@ -51,8 +51,8 @@ from .measures import gap_profile, incision_width, lip_deviation, path_coverage
 from .region import border_edges, distance_to_segments
 from .remesh import PieceCut, SlitDoesNotFit, clearance, cut_piece, edge_clearance
 from .settings import CutSettings
-from .surface import Crossing
 from .slit_band import samples_to_cut
+from .surface import Crossing
 from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE, VOID_REACH
 from .topology import NodePositions, TopologyEditor
 from .wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
