@@ -207,12 +207,15 @@ def _band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, first: boo
           near: np.ndarray) -> SlitBand:
     """The event's band: onto the newest live lip pair when the piece starts at it, round the
     start in the incision's first event (or while it has no pair yet), onto the borders of the
-    tissue at ``near`` (node slots) where it runs into an opening."""
+    tissue at ``near`` (node slots) where it runs into an opening. Once the slit cut so far ends
+    in an opening (it has no tip), a piece starts from that opening's border, whatever the
+    first sample's clearance from it: the newest pair lies behind the opening."""
     active = model.active
-    k = inc.last_pair(active)
+    ends_open = inc.cut_point is not None and inc.tip_node < 0 and not first
+    k = -1 if ends_open else inc.last_pair(active)
     pair = (inc.left[k], inc.right[k]) if k >= 0 else None
     start = inc.start_node if inc.start_node >= 0 and active[inc.start_node] else None
-    start_possible = pair is None and ((first and inc.starts_on_tissue) or start is not None)
+    start_possible = pair is None and not ends_open and ((first and inc.starts_on_tissue) or start is not None)
     stations = inc.next_stations(float(u[-1]) - LAST_STATION * inc.spacing)
     borders = [(a, b) for a, b in border_edges(model, model.index.triangles_at(near)).tolist()
                if not (a in inc.slit_nodes and b in inc.slit_nodes)]
