@@ -145,15 +145,39 @@ def test_a_crossing_beyond_reach_of_every_triangle_has_no_material_point():
                                  reach=1.0) is None
 
 
-def test_a_fit_landing_off_the_rest_sheet_is_put_on_its_nearest_point():
+def test_a_fit_landing_off_the_rest_sheet_stays_where_it_lands():
     """The sheet unmoved, a crossing 0.2 mm beyond its right edge (within reach): the affine
-    image is the crossing itself, off the sheet; the material point is the nearest rest point,
-    on the edge, 0.2 mm away."""
+    image is the crossing itself, off the sheet, and so is the material point (on the plane of
+    the nearest rest triangle, 0.2 mm from it). A crossing in a gaping wound is carried into
+    the slit it gapes from, not onto a lip: snapped onto the lips, a stroke across the wound
+    ran along them, where nothing is cut."""
     rest, tri = sheet()
     point = np.array([2.2e-3, 0.4e-3, 0.0])
     got = affine_material_point(point, [0, 0, 1], rest, rest, np.ones(len(rest)), rest[tri], rest[tri], reach=3e-4)
-    assert got.rest == pytest.approx([2.0e-3, 0.4e-3, 0.0], abs=1e-15)
+    assert got.rest == pytest.approx([2.2e-3, 0.4e-3, 0.0], abs=1e-15)
     assert got.distance == pytest.approx(0.2e-3)
+
+
+def test_a_gaping_slit_carries_a_crossing_in_it_back_into_the_slit():
+    """A sheet cut along y = 0 (no triangle joins the two halves, whose nearest rows rest 0.2 mm
+    apart: a slit) gapes: each half moved 0.5 mm away from it. A crossing halfway across the gap
+    comes back into the slit, near its middle, not onto either lip."""
+    rest, tri = sheet(6)
+    upper, lower = rest[:, 1] > 0.0, rest[:, 1] < 0.0
+    rest = rest.copy()
+    rest[upper, 1] -= 0.4e-3  # the rows at +-0.5 mm now rest at +-0.1 mm
+    rest[lower, 1] += 0.4e-3
+    halves = tri[np.all(upper[tri], axis=1) | np.all(lower[tri], axis=1)]
+    now = rest.copy()
+    now[upper, 1] += 0.5e-3
+    now[lower, 1] -= 0.5e-3
+    keep = upper | lower
+    point = np.array([0.3e-3, 0.0, 0.0])
+    got = affine_material_point(point, [0, 0, 1], now[keep], rest[keep], np.ones(keep.sum()), now[halves],
+                                rest[halves], reach=1e-3)
+    assert got is not None
+    assert got.rest[0] == pytest.approx(0.3e-3, abs=1e-9)
+    assert abs(got.rest[1]) < 0.05e-3  # in the slit (|y| < 0.1 mm), near its middle
 
 
 def test_nodes_on_a_line_fall_back_to_the_triangle_map():

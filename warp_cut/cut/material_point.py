@@ -7,9 +7,10 @@ pierces changes from step to step, so the map is taken from the tissue round the
 the affine map that best carries the current positions of the nodes near the crossing (those the
 tool pushes left out, Gaussian weights) to their rest positions, in the skin's tangent plane
 there (``affine_material_point``). It is the barycentric map wherever a triangle is carried
-affinely, and it is smooth from event to event. The point is then put on the rest surface (the
-nearest point of the rest triangles) with the rest surface's normal there. A crossing farther
-than a reach from every live triangle lies over an opening (an earlier wound): it has no
+affinely, and it is smooth from event to event. The point is then put on the rest surface:
+onto the plane of the nearest rest triangle, along its normal, so that a crossing in a gaping
+wound comes back into the slit it gapes from (a point of the opening, not a lip). A crossing
+farther than a reach from every live triangle lies over an opening (an earlier wound): it has no
 material point.
 
 Shapes: corners (m, 3, 3) [m]; points (3,) [m].
@@ -34,7 +35,8 @@ class MaterialPoint:
         rest: The material point [m], (3,).
         normal: The rest surface's unit outward normal there, (3,).
         triangle: Row (into the triangles given) of the triangle it lies in.
-        distance: How far the crossing lay from that triangle [m] (0: on it).
+        distance: How far the crossing (the affine fit's point, ``affine_material_point``) lay
+            from that triangle [m] (0: on it; more: in an opening beside it).
     """
 
     rest: np.ndarray
@@ -91,8 +93,9 @@ def affine_material_point(point, normal, current: np.ndarray, rest: np.ndarray, 
                           current_corners: np.ndarray, rest_corners: np.ndarray, reach: float) -> MaterialPoint | None:
     """The material point of the crossing ``point`` [m] (3,) (skin normal ``normal``) through the
     affine map carrying the nodes' ``current`` positions (k, 3) [m] to their ``rest`` positions
-    (k, 3) [m] with ``weights`` (k,), fitted in the tangent plane at the crossing; put on the
-    nearest of the rest triangles ``rest_corners`` (m, 3, 3). None if no live triangle
+    (k, 3) [m] with ``weights`` (k,), fitted in the tangent plane at the crossing; put onto the
+    plane of the nearest of the rest triangles ``rest_corners`` (m, 3, 3) (it may lie off the
+    triangle, in an opening; ``distance`` says how far). None if no live triangle
     (``current_corners`` (m, 3, 3)) lies within ``reach`` [m] of the crossing (over an opening),
     or the nodes do not span the plane (then the triangle map is used)."""
     point = np.asarray(point, dtype=np.float64)
@@ -108,8 +111,10 @@ def affine_material_point(point, normal, current: np.ndarray, rest: np.ndarray, 
     solution, _, rank, _ = np.linalg.lstsq(basis * sw[:, None], rest * sw[:, None], rcond=1e-10)
     if rank < 3:
         return material_point(point, current_corners, rest_corners, reach)
-    dist, lam = closest_on_triangles(solution[0], rest_corners)
+    dist, _ = closest_on_triangles(solution[0], rest_corners)
     k = int(np.argmin(dist))
     corners = rest_corners[k]
     rest_normal = cross3(corners[1] - corners[0], corners[2] - corners[0])
-    return MaterialPoint(lam[k] @ corners, rest_normal / np.linalg.norm(rest_normal), k, float(dist[k]))
+    rest_normal /= np.linalg.norm(rest_normal)
+    on_plane = solution[0] - float((solution[0] - corners[0]) @ rest_normal) * rest_normal
+    return MaterialPoint(on_plane, rest_normal, k, float(dist[k]))
