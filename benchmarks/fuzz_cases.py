@@ -31,6 +31,10 @@ START_MARGIN = 3e-3
 """Clearance [m] of the tool from the undeformed mesh at its start and end poses (earlier cuts
 and the tool's push lift nodes a little above the surface)."""
 
+SETTLE_S = 0.5
+"""Time [s] the skin settles with the tool gone after a case's last stroke before it is judged
+again (``fuzz_cut.settled``)."""
+
 
 def case_seed(base_seed: int, index: int) -> int:
     """The seed of case ``index`` of a run started with ``base_seed``."""

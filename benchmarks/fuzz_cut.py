@@ -8,8 +8,10 @@ gravity=...)``) and draws 2-4 strokes (lines, arcs, zigzags; tilt 30-75 deg, too
 ``sim.step(tool=pose)`` at a time (``warp_cut.verify.stroke_check.run_stroke``). After every
 topology edit all invariants are checked (``warp_cut.verify.validity.cut_problems``); after each
 stroke the cut is measured (``warp_cut.verify.stroke_quality``: coverage, split incisions, holes,
-lip deviation, slivers, latency). An exception ends its case (recorded with a reproducer) and
-the run goes on with the next case.
+lip deviation, slivers, latency); after a case's last stroke the skin settles for ``SETTLE_S``
+with the tool gone and is judged again (folded triangles, the cut's smallest angle as it then
+lies). An exception ends its case (recorded with a reproducer) and the run goes on with the
+next case.
 
     python benchmarks/fuzz_cut.py [--events 2500] [--seed 1] [--cases N] [--kind dome] [--quick]
                                   [--out benchmarks/results/fuzz.md]
@@ -36,13 +38,15 @@ import numpy as np
 import warp as wp
 
 import warp_cut as wc
+from warp_cut.mesh.geometry import triangle_min_angles
 from warp_cut.scene import DEFAULT_FOUNDATION_STIFFNESS
 from warp_cut.sim.bending import flexural_rigidity
+from warp_cut.verify.cut_judge import against, surface_normal_at
 from warp_cut.verify.stroke_check import run_stroke
 from warp_cut.verify.stroke_quality import original_border
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fuzz_cases import KINDS, NAMED, build_stroke, build_surface, case_seed, make_case  # noqa: E402
+from fuzz_cases import KINDS, NAMED, SETTLE_S, build_stroke, build_surface, case_seed, make_case  # noqa: E402
 from fuzz_report import write_report  # noqa: E402
 from fuzz_scene import run_scene_case  # noqa: E402
 
@@ -121,6 +125,7 @@ def run_case(case: dict, *, strokes: int | None = None, log=print) -> list[dict]
         log(_progress(row))
         return [row]
     border = original_border(model)
+    original_slots = model.triangle_table.count
     rows = []
     for index, spec in enumerate(case["strokes"][:strokes]):
         stroke = build_stroke(surface, spec)
@@ -130,7 +135,27 @@ def run_case(case: dict, *, strokes: int | None = None, log=print) -> list[dict]
         log(_progress(rows[-1]))
         if result.exception:
             break  # the tissue is in an unknown state after an exception
+    if rows and not rows[-1]["exception"]:
+        rows[-1].update(settled(sim, surface, original_slots))
     return rows
+
+
+def settled(sim, surface, original_slots: int) -> dict:
+    """After the case's last stroke, the skin left to settle ``SETTLE_S`` with the tool gone:
+    triangles folded over (the current normal against the surface's, ``cut_judge.against``)
+    among all and among those the cut made, and the smallest angle of the cut's triangles as
+    the skin then lies."""
+    try:
+        sim.step(int(np.ceil(SETTLE_S / sim.dt)), tool=None)
+    except Exception as exc:  # an unstable settle is a finding too
+        return {"settle_exception": f"{type(exc).__name__}: {exc}"}
+    model = sim.model
+    triangles = model.triangles
+    made = model.triangle_table.live_slots() >= original_slots
+    folded = against(sim.positions, triangles, lambda c: surface_normal_at(surface, c))
+    angles = triangle_min_angles(sim.positions, triangles[made]) if made.any() else np.array([180.0])
+    return {"settled_folded": int(folded.sum()), "settled_folded_cut": int((folded & made).sum()),
+            "settled_min_cut_angle_deg": float(angles.min())}
 
 
 def _progress(row: dict) -> str:

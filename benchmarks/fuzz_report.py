@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import csv
 import re
+import sys
 from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
 
 from warp_cut.verify.validity import FOLD_CHECKS
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fuzz_cases import SETTLE_S  # noqa: E402
 
 WOUND_WRONG = "tri_against_rest"
 """The check of triangles wound against the surface in the rest shape (where the cut decides)."""
@@ -62,6 +66,12 @@ def _stats(rows) -> dict:
         "covered": sum(c >= COVERED for c in cov),
         "no_skin": len(ran) - len(cov),
         "slivers": sum(r.get("slivers", 0) > 0 for r in ran),
+        "settled_cases": sum("settled_folded" in r for r in rows),
+        "settled_folded_cases": sum(r.get("settled_folded", 0) > 0 for r in rows),
+        "settled_folded": sum(r.get("settled_folded", 0) for r in rows),
+        "settled_folded_cut": sum(r.get("settled_folded_cut", 0) for r in rows),
+        "settled_slivers": sum(r.get("settled_min_cut_angle_deg", 180.0) < 10.0 for r in rows),
+        "settle_exceptions": sum(bool(r.get("settle_exception")) for r in rows),
         "lat_p50": _pct(latency, 50), "lat_p99": _pct(latency, 99), "lat_max": _pct(latency, 100),
     }
 
@@ -87,6 +97,11 @@ def _totals(rows, wall) -> list[str]:
         f"strokes with coverage >= {COVERED}: {s['covered']} of {s['strokes']} "
         f"({s['no_skin']} with no skin under their trace)",
         f"- strokes leaving slivers (< 10 deg) among the triangles they made: {s['slivers']}",
+        f"- after a case's last stroke, the skin settled {SETTLE_S} s with the tool gone ({s['settled_cases']} "
+        f"cases): cases with a triangle folded over **{s['settled_folded_cases']}** ({s['settled_folded']} "
+        f"triangles, {s['settled_folded_cut']} of them made by the cut); cases with a triangle the cut made "
+        f"under 10 deg as the skin lies: {s['settled_slivers']}; settles that went unstable: "
+        f"{s['settle_exceptions']}",
         f"- host latency per cut event: p50 {_fmt(s['lat_p50'])} ms, p99 **{_fmt(s['lat_p99'])} ms**, "
         f"max {_fmt(s['lat_max'])} ms",
     ]
