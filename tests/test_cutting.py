@@ -1265,14 +1265,13 @@ def test_a_zigzag_across_three_earlier_wounds_joins_them():
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "regression of the coverage guarantee: while the thick tool (r 2.8 mm) passes through the "
-    "first wound's opening, which its push widens, its crossings are carried onto that wound's "
-    "lips in the rest shape (cutter._material carries a crossing up to the tool radius + "
-    "VOID_REACH spacings, 3.35 mm, from a live triangle onto the nearest one): the rest curve "
-    "runs 0.03-0.6 mm from the first curve for ~10 mm though the path crosses it at ~45 deg; "
-    "cutter._on_triangles_at takes that stretch as in the opening (edge clearance 1.17 mm), so "
-    "the band leaves it: one station (at 1.0 mm), 0.48 of the path opened "
-    "(stroke_quality.coverage; 0.45 short of the end allowance by opened_fraction)"))
+    "regression of the coverage guarantee: the zigzag's middle leg runs along the first wound, "
+    "within about 0.3 mm of its curve for ~8 mm, and the thick tool's (r 2.8 mm) push widens that "
+    "wound's opening: the crossings there are carried into the first wound's slit in the rest "
+    "shape (cutter._material; before 259bf92 onto its lips), and cutter._on_triangles_at takes that "
+    "stretch as in the opening (edge clearance 1.17 mm), so the band leaves it: one station (at "
+    "1.0 mm), 0.48 of the path opened (stroke_quality.coverage; 0.45 short of the end allowance by "
+    "opened_fraction)"))
 def test_a_thick_zigzag_across_an_earlier_cut_joins_it():
     """A thick tool (r 2.8 mm on a 1.56 mm grid, 46 degrees, gravity and the foundation on)
     drawn in a zigzag across an earlier cut (fuzz case 1461883172, seed 20261216): once a hole
