@@ -497,18 +497,10 @@ def test_latency_has_one_entry_per_event_and_stage(patch_stroke):
         assert 0.0 <= summary["p50_ms"] <= summary["p99_ms"] <= summary["max_ms"] == pytest.approx(v.max())
 
 
-START_OFF_THE_SKIN = pytest.mark.xfail(strict=True, raises=InputError, reason=(
-    "regression: Cutter.start_incision raises InputError ('the incision's start ... is not on the "
-    "skin') for a start point off the tissue: cutter._material finds no live triangle within "
-    "VOID_REACH spacings (0.68 mm here; the direct API passes no tool, so no radius is added) and "
-    "returns None (cutter.py, start_incision / _material); before the redesign such an incision "
-    "started in the opening and cut on into the tissue"))
-"""A stroke whose tool starts beside the patch (the direct API's start point off the skin)."""
-
-
-@START_OFF_THE_SKIN
 def test_cut_from_border_to_border_severs_the_patch():
-    """A cut across the whole (unpinned) patch leaves two pieces joined by no spring."""
+    """A cut across the whole (unpinned) patch, started 2 mm beside it through the direct API
+    (``start_incision`` off the skin: the incision starts in the opening beyond the edge, carried
+    by the tissue's map nearest it), leaves two pieces joined by no spring."""
     model, sim = patch_sim(size=(0.02, 0.012), pinned="none")
     cut_along(sim, [np.array([-0.012, 0.0, 0.0]), np.array([0.012, 0.0, 0.0])])
     # the two halves share no triangle, spring or link... except residual links across
@@ -518,6 +510,16 @@ def test_cut_from_border_to_border_severs_the_patch():
     # connectivity through springs: two pieces
     live = np.flatnonzero(model.active)
     assert components(model.node_count, model.springs, live) == 2
+
+
+def test_a_start_far_from_the_skin_is_refused_with_the_distance_it_needs():
+    """start_incision 10 mm beyond the patch's edge (no tissue node within 2.5 spacings): an
+    InputError that says how near the skin a start must be, and no incision begun."""
+    model, sim = patch_sim()
+    reach = f"{2.5 * sim.cutter.spacing:.3g}"  # the lip spacing: the median spring length, ~2 mm
+    with pytest.raises(InputError, match=f"not near the skin .* within {reach} m"):
+        sim.cutter.start_incision(sim, np.array([0.02, 0.0, 0.0]), [0, 0, 1], 0.001)
+    assert sim.cutter.current is None and not sim.cutter.incisions
 
 
 @pytest.mark.parametrize("offset, joins", [(0.6e-3, True), (1.5e-3, False)])
@@ -697,7 +699,6 @@ def test_stable_step_of_a_cut_mesh_against_its_eigenvalues():
 
 
 # ------------------------------------------------------------------ random cuts
-@START_OFF_THE_SKIN
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(0, 2**31 - 1), st.integers(2, 5), st.floats(0.3, 1.2))
 @example(seed=1, corners=2, radius_in_spacings=1.0)  # starts 1 mm beside the patch: always tried first

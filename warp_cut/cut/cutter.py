@@ -209,17 +209,21 @@ class Cutter:
     def start_incision(self, sim: CutHost, point, normal, sweep_radius: float) -> Incision:
         """Begin a new incision at ``point`` [m] on the skin as it lies now, with unit outward
         ``normal`` there; the swept circle has radius ``sweep_radius`` [m]. (``after_step``
-        calls this where the blade entered; a haptic loop or a test may call it directly.)
+        calls this where the blade entered; a haptic loop or a test may call it directly.) A
+        point beside the skin (over an opening, or beyond the tissue's edge) starts the
+        incision there, carried into the rest shape by the tissue nearest it: the slit then
+        opens from that opening's border once the blade is in the tissue.
 
         Raises:
-            InputError: A bad radius, or ``point`` is not on the skin (over an opening).
+            InputError: A bad radius, or no tissue node within 2.5 spacings of ``point``.
         """
         if not (np.isfinite(sweep_radius) and sweep_radius > 0):
             raise InputError(f"sweep radius must be > 0 m, got {sweep_radius}")
         crossing = _crossing_at(point, normal)
-        start = self._material(sim, crossing, None)
+        start = self._material(sim, crossing, None, reach=np.inf)
         if start is None:
-            raise InputError(f"the incision's start {np.asarray(point).tolist()} is not on the skin")
+            raise InputError(f"the incision's start {np.asarray(point).tolist()} is not near the skin "
+                             f"(no tissue node within {2.5 * self.spacing:.3g} m of it)")
         self.end_incision(sim)
         return self._begin(start, crossing, sweep_radius)
 
@@ -261,7 +265,8 @@ class Cutter:
             return
         now = time.perf_counter()
         for back in range(END_TRIES):  # the tool has gone: up to the end, or as near it as fits
-            if self._cut(sim, inc, None, inc.length - back * MIN_ADVANCE * self.spacing, (now, now, now)):
+            if self._cut(sim, inc, None, inc.length - back * MIN_ADVANCE * self.spacing, (now, now, now),
+                         final=True):
                 break
         self.editor.begin()
         settle_pending_links(self.editor, inc, reach=np.inf)
@@ -289,11 +294,13 @@ class Cutter:
         return sim.state.positions.numpy()[: self.model.node_count]
 
     # ----------------------------------------------------------------- where the blade is
-    def _material(self, sim: CutHost, crossing: Crossing, tool: Tool | None) -> MaterialPoint | None:
+    def _material(self, sim: CutHost, crossing: Crossing, tool: Tool | None,
+                  reach: float | None = None) -> MaterialPoint | None:
         """The material point the blade cuts at ``crossing``: the affine map of the tissue round
         it (the nodes within 1.5 radii of the axis, which the tool pushes, left out) carried onto
         the rest surface (``affine_material_point``); None over an opening (no live triangle
-        within the tool's radius + ``VOID_REACH`` spacings)."""
+        within ``reach`` [m], by default the tool's radius + ``VOID_REACH`` spacings) or with no
+        tissue node within 2.5 spacings (plus the radius)."""
         x = self._positions_view(sim)
         radius = 0.0 if tool is None else tool.radius
         scale = radius + 1.5 * self.spacing
@@ -313,7 +320,7 @@ class Cutter:
         corners = self.model.triangle_table.column("corners")[tris]
         return affine_material_point(crossing.point, crossing.normal, current, self.model.points[nodes], weights,
                                      x[corners].astype(np.float64), self.model.points[corners],
-                                     reach=radius + VOID_REACH * self.spacing)
+                                     reach=radius + VOID_REACH * self.spacing if reach is None else reach)
 
     # ----------------------------------------------------------------- one event
     def extend_incision(self, sim: CutHost, point, normal=None) -> None:
@@ -371,11 +378,13 @@ class Cutter:
             behind += 0.25 * self.spacing
         return behind
 
-    def _cut(self, sim: CutHost, inc: Incision, tool: Tool | None, upto: float, times: tuple) -> bool:
+    def _cut(self, sim: CutHost, inc: Incision, tool: Tool | None, upto: float, times: tuple,
+             final: bool = False) -> bool:
         """Cut the piece of ``inc``'s curve from its last cut to arc length ``upto`` [m] (Stages 1
         and 3), its links and any island, then mirror the edit; ``times`` (perf_counter at the
-        event's start, after locating, after the curve) for the latency. False if nothing was
-        cut (too short a piece, or a slit that does not fit: the next event tries again)."""
+        event's start, after locating, after the curve) for the latency; ``final``: the
+        incision's last cut (nothing waits for a later event). False if nothing was cut (too
+        short a piece, or a slit that does not fit: the next event tries again)."""
         editor = self.editor
         first = not inc.station_u and inc.tip_node < 0
         unopened = inc.last_pair(self.model.active) < 0  # until a lip pair stands, cut from the start again
@@ -392,7 +401,7 @@ class Cutter:
         on_tissue = self._on_triangles_at(piece, near, edge_clearance(inc), inc.slit_nodes)
         if tool is not None and not on_tissue[-1]:
             return False  # the tip would lie in an opening: wait till the blade is through it
-        if tool is not None:  # a run past an opening waits until it can hold a lip pair
+        if not final:  # a run past an opening waits until it can hold a lip pair
             keep = samples_to_cut(u, on_tissue, (FIRST_STATION + LAST_STATION) * self.spacing)
             if keep == 0:
                 return False
