@@ -1269,8 +1269,9 @@ def test_a_zigzag_across_three_earlier_wounds_joins_them():
     "regression of the coverage guarantee: the zigzag's middle leg runs along the first wound, "
     "within about 0.3 mm of its curve for ~8 mm, and the thick tool's (r 2.8 mm) push widens that "
     "wound's opening: the crossings there are carried into the first wound's slit in the rest "
-    "shape (cutter._material; before 259bf92 onto its lips), and cutter._on_triangles_at takes that "
-    "stretch as in the opening (edge clearance 1.17 mm), so the band leaves it: one station (at "
+    "shape (BladeContact.material; before 259bf92 onto its lips), and "
+    "tissue_at_rest.on_tissue_at_rest takes that stretch as in the opening (edge clearance "
+    "1.17 mm), so the band leaves it: one station (at "
     "1.0 mm), 0.48 of the path opened (stroke_quality.coverage; 0.45 short of the end allowance by "
     "opened_fraction)"))
 def test_a_thick_zigzag_across_an_earlier_cut_joins_it():

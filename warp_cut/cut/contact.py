@@ -4,7 +4,8 @@ The ``Cutter`` asks them at every cut event:
 
 * where the tool's axis crosses the current, deformed skin around it (``contact``;
   ``warp_cut.cut.surface.locate_crossing``), among the live nodes near the tool (a Warp kernel
-  finds them, one thread per node slot);
+  finds them, one thread per node slot), and which material point that crossing cuts
+  (``material``: ``warp_cut.cut.material_point``);
 * whether an incision may start there (``can_start``), and where the blade entered or last
   crossed the skin among the poses since the previous event (``first_crossing``,
   ``last_crossing``);
@@ -24,7 +25,9 @@ from ..kernels.cutting import segment_node_hits
 from ..sim.control import Tool
 from ..sim.model import TissueModel
 from .incision import Incision, closest_on_polyline
+from .material_point import MaterialPoint, affine_material_point
 from .surface import Crossing, locate_crossing
+from .tolerances import VOID_REACH
 
 __all__ = ["BladeContact", "HitLists"]
 
@@ -81,6 +84,34 @@ class BladeContact:
         return locate_crossing(tool.p0, tool.p1, x, corners, reach=tool.radius + 1.5 * self.spacing,
                                fit_radius=tool.radius + 1.5 * self.spacing, exclude=1.5 * tool.radius,
                                rest_positions=rest)
+
+    def material(self, sim, x: np.ndarray, crossing: Crossing, tool: Tool | None,
+                 reach: float | None = None) -> MaterialPoint | None:
+        """The material point the blade cuts at ``crossing``, the skin's nodes at ``x`` (n, 3)
+        [m]: the affine map of the tissue round it (the nodes within 1.5 radii of the axis,
+        which the tool pushes, left out) carried onto the rest surface
+        (``affine_material_point``); None over an opening (no live triangle within ``reach``
+        [m], by default the tool's radius + ``VOID_REACH`` spacings) or with no tissue node
+        within 2.5 spacings (plus the radius)."""
+        radius = 0.0 if tool is None else tool.radius
+        scale = radius + 1.5 * self.spacing
+        nodes = self.nodes_near(sim, crossing.point, crossing.point, scale + self.spacing)
+        tris = np.array(self.model.index.triangles_at(nodes), dtype=np.int64)
+        if len(nodes) < 3 or not len(tris):
+            return None
+        current = x[nodes].astype(np.float64)
+        if tool is not None:
+            axis = tool.p1 - tool.p0
+            rel = current - tool.p0
+            off_axis = np.linalg.norm(rel - np.outer(rel @ axis / max(float(axis @ axis), 1e-300), axis), axis=1)
+            away = off_axis >= 1.5 * radius
+            if away.sum() >= 6:
+                nodes, current = nodes[away], current[away]
+        weights = np.exp(-((np.linalg.norm(current - crossing.point, axis=1) / scale) ** 2)) + 1e-12
+        corners = self.model.triangle_table.column("corners")[tris]
+        return affine_material_point(crossing.point, crossing.normal, current, self.model.points[nodes], weights,
+                                     x[corners].astype(np.float64), self.model.points[corners],
+                                     reach=radius + VOID_REACH * self.spacing if reach is None else reach)
 
     def skin_near(self, sim, tool: Tool, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(live nodes within 1.5 tool radii + 3 spacings of its axis (k,), the live triangles

@@ -6,10 +6,10 @@ tip has travelled a set fraction of the lip spacing (``CutSettings.travel``; or 
 tool pushes harder than a threshold) a cut event runs:
 
 * where the blade is: the crossing of the tool's axis with the current skin around it, with
-  the skin's normal there (``warp_cut.cut.surface``), carried into the rest shape through the
-  triangle the axis pierces, or the nearest one (``warp_cut.cut.material_point``); a crossing
+  the skin's normal there (``warp_cut.cut.surface``), carried into the rest shape by the
+  tissue round it (``BladeContact.material``, ``warp_cut.cut.material_point``); a crossing
   over an opening (an earlier wound) waits for the skin beyond it;
-* Stage 2 - the rest points of the crossings are fitted with a C1 chain of cubic Bezier
+* Stage 2 - the rest points of the crossings are fitted with a chain of cubic Bezier
   segments (``warp_cut.cut.incision``);
 * Stages 1 and 3 - the piece of rest curve cut since the last event sweeps a band whose nodes
   are deleted, and the region round it is re-meshed with the slit in it, every triangle at
@@ -39,21 +39,20 @@ from ..mesh.triangulate import border_loop_count
 from ..sim.control import Tool
 from ..sim.model import TissueModel
 from ..sim.strokes import inside_cylinder
-from .chart import RegionChart, barycentric
 from .contact import BladeContact, HitLists
 from .events import EventClock
 from .flips import flip_to_delaunay
 from .host import CutHost
 from .incision import Incision
 from .islands import islands_from
-from .material_point import MaterialPoint, affine_material_point
+from .material_point import MaterialPoint
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
-from .region import border_edges, distance_to_segments
 from .remesh import PieceCut, SlitDoesNotFit, clearance, cut_piece, edge_clearance
 from .settings import CutSettings
 from .slit_band import samples_to_cut
 from .surface import Crossing
-from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE, VOID_REACH
+from .tissue_at_rest import joined_start, on_tissue_at_rest, rest_point_on_tissue
+from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE
 from .topology import NodePositions, TopologyEditor
 from .wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
@@ -200,7 +199,7 @@ class Cutter:
             found = self.contact.first_crossing(sim, poses, x[nodes], rest, corners)
             if found is not None:
                 entry, entry_tool = found
-        start = self._material(sim, entry, entry_tool)
+        start = self.contact.material(sim, x, entry, entry_tool)
         if start is None:
             return
         self._begin(start, entry, self.settings.sweep_radius or tool.radius)
@@ -220,7 +219,7 @@ class Cutter:
         if not (np.isfinite(sweep_radius) and sweep_radius > 0):
             raise InputError(f"sweep radius must be > 0 m, got {sweep_radius}")
         crossing = _crossing_at(point, normal)
-        start = self._material(sim, crossing, None, reach=np.inf)
+        start = self.contact.material(sim, self._positions_view(sim), crossing, None, reach=np.inf)
         if start is None:
             raise InputError(f"the incision's start {np.asarray(point).tolist()} is not near the skin "
                              f"(no tissue node within {2.5 * self.spacing:.3g} m of it)")
@@ -230,31 +229,16 @@ class Cutter:
     def _begin(self, start: MaterialPoint, crossing: Crossing, sweep_radius: float) -> Incision:
         """A new incision from the material point ``start`` (the blade's ``crossing`` there)."""
         s = self.settings
-        rest = self._joined_start(start.rest, sweep_radius)
+        rest = joined_start(self.model, self.incisions, start.rest, sweep_radius)
         inc = Incision(rest, start.normal, spacing=self.spacing,
                        lip_offset=s.lip_offset or 0.25 * sweep_radius, tolerance=s.tolerance or 0.1 * self.spacing,
                        contact_point=crossing.point, contact_normal=crossing.normal)
         inc.sweep_radius = float(sweep_radius)
-        inc.starts_on_tissue = self._rest_point_on_tissue(rest)
+        inc.starts_on_tissue = rest_point_on_tissue(self.model, rest, self.spacing)
         self._linked[len(self.incisions)] = set()
         self.incisions.append(inc)
         self.current = inc
         return inc
-
-    def _joined_start(self, rest: np.ndarray, radius: float) -> np.ndarray:
-        """Where a new incision starts [m] (3,): at ``rest``, or at the nearest live node of an
-        earlier incision's slit within ``radius`` [m] of it (the blade's swept disc reaches
-        that wound, so the new slit starts in it and joins it, as a T's stem does)."""
-        best, nearest = None, radius
-        for inc in self.incisions:
-            nodes = np.fromiter((v for v in inc.slit_nodes if self.model.active[v]), dtype=np.int64)
-            if not len(nodes):
-                continue
-            dist = np.linalg.norm(self.model.points[nodes] - rest, axis=1)
-            k = int(np.argmin(dist))
-            if dist[k] < nearest:
-                best, nearest = int(nodes[k]), float(dist[k])
-        return rest if best is None else self.model.points[best].astype(np.float64).copy()
 
     def end_incision(self, sim: CutHost) -> None:
         """Finish the current incision (the next cut starts a new one): its waiting links go to
@@ -293,35 +277,6 @@ class Cutter:
         # zero-copy on the CPU; a copy from a GPU
         return sim.state.positions.numpy()[: self.model.node_count]
 
-    # ----------------------------------------------------------------- where the blade is
-    def _material(self, sim: CutHost, crossing: Crossing, tool: Tool | None,
-                  reach: float | None = None) -> MaterialPoint | None:
-        """The material point the blade cuts at ``crossing``: the affine map of the tissue round
-        it (the nodes within 1.5 radii of the axis, which the tool pushes, left out) carried onto
-        the rest surface (``affine_material_point``); None over an opening (no live triangle
-        within ``reach`` [m], by default the tool's radius + ``VOID_REACH`` spacings) or with no
-        tissue node within 2.5 spacings (plus the radius)."""
-        x = self._positions_view(sim)
-        radius = 0.0 if tool is None else tool.radius
-        scale = radius + 1.5 * self.spacing
-        nodes = self.contact.nodes_near(sim, crossing.point, crossing.point, scale + self.spacing)
-        tris = np.array(self.model.index.triangles_at(nodes), dtype=np.int64)
-        if len(nodes) < 3 or not len(tris):
-            return None
-        current = x[nodes].astype(np.float64)
-        if tool is not None:
-            axis = tool.p1 - tool.p0
-            rel = current - tool.p0
-            off_axis = np.linalg.norm(rel - np.outer(rel @ axis / max(float(axis @ axis), 1e-300), axis), axis=1)
-            away = off_axis >= 1.5 * radius
-            if away.sum() >= 6:
-                nodes, current = nodes[away], current[away]
-        weights = np.exp(-((np.linalg.norm(current - crossing.point, axis=1) / scale) ** 2)) + 1e-12
-        corners = self.model.triangle_table.column("corners")[tris]
-        return affine_material_point(crossing.point, crossing.normal, current, self.model.points[nodes], weights,
-                                     x[corners].astype(np.float64), self.model.points[corners],
-                                     reach=radius + VOID_REACH * self.spacing if reach is None else reach)
-
     # ----------------------------------------------------------------- one event
     def extend_incision(self, sim: CutHost, point, normal=None) -> None:
         """One cut event: cut from the incision's last crossing to ``point`` [m] on the skin as
@@ -349,13 +304,13 @@ class Cutter:
         None (wait) over an opening, when the blade has not moved on enough, or when it is back
         over what is cut. A lowered tool's incision turns back here first (``turn_back``)."""
         inc = self.current
-        point = self._material(sim, crossing, tool)
+        point = self.contact.material(sim, self._positions_view(sim), crossing, tool)
         if point is None or np.linalg.norm(point.rest - inc.path[-1]) < MIN_ADVANCE * self.spacing:
             return None  # over an opening, or the blade has not moved on enough: wait
         if inc.turns_back(point.rest):  # a tool lowered with its axis tilted, now travelling
             inc.turn_back()
-            inc.start_at(self._joined_start(inc.path[0], inc.sweep_radius))
-            inc.starts_on_tissue = self._rest_point_on_tissue(inc.path[0])
+            inc.start_at(joined_start(self.model, self.incisions, inc.path[0], inc.sweep_radius))
+            inc.starts_on_tissue = rest_point_on_tissue(self.model, inc.path[0], self.spacing)
         if inc.retraces(point.rest, inc.sweep_radius):
             return None  # back over what is cut (a bouncing skin under a tilted blade)
         return point
@@ -398,7 +353,7 @@ class Cutter:
         piece = inc.point_at(u)
         near = self.contact.nodes_near_at_rest(sim, piece[0], piece[-1],
                                                clearance(inc) + 3.0 * self.spacing + 0.5 * (upto - u_from))
-        on_tissue = self._on_triangles_at(piece, near, edge_clearance(inc), inc.slit_nodes)
+        on_tissue = on_tissue_at_rest(self.model, piece, near, edge_clearance(inc), inc.slit_nodes)
         if tool is not None and not on_tissue[-1]:
             return False  # the tip would lie in an opening: wait till the blade is through it
         if not final:  # a run past an opening waits until it can hold a lip pair
@@ -437,33 +392,6 @@ class Cutter:
         for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t4 - t3, t5 - t4, t6 - t5)):
             self.latency_ms[name].append(1e3 * dt)
         return True
-
-    def _rest_point_on_tissue(self, point: np.ndarray) -> bool:
-        """True if the rest point ``point`` (3,) [m] lies on the tissue at rest (the nodes near
-        it found on the model: O(nodes), once per incision)."""
-        near = np.flatnonzero(self.model.active & (np.linalg.norm(self.model.points - point, axis=1)
-                                                   <= 2.0 * self.spacing))
-        return bool(self._on_triangles_at(point[None], near, 0.1 * self.spacing)[0])
-
-    def _on_triangles_at(self, points: np.ndarray, nodes: np.ndarray, edge: float, own=frozenset()) -> np.ndarray:
-        """Mask (k,) of the rest points (k, 3) [m] lying on the rest shape of a live triangle at
-        ``nodes`` (within a hundredth of a spacing) and farther than ``edge`` [m] from the
-        tissue's borders (but those of the slit of nodes ``own``: an incision's own): in the
-        tissue, not in an opening nor at its edge."""
-        tris = np.array(self.model.index.triangles_at(nodes), dtype=np.int64)
-        if not len(tris):
-            return np.zeros(len(points), dtype=bool)
-        corners = self.model.triangle_table.column("corners")[tris]
-        rest = self.model.points[corners]
-        chart = RegionChart.of_triangles(rest)  # a point over a triangle, off its plane (a curve's chord) is on it
-        lam = barycentric(chart.to2d(points), chart.to2d(rest))
-        inside = np.nan_to_num(lam.min(axis=2), nan=-1.0).max(axis=1) >= -0.01
-        border = border_edges(self.model, tris)
-        if own:
-            border = border[~(np.isin(border[:, 0], list(own)) & np.isin(border[:, 1], list(own)))]
-        points_of = self.model.points
-        away = distance_to_segments(points, points_of[border[:, 0]], points_of[border[:, 1]]) > edge
-        return inside & away
 
     def _wound_links(self, inc: Incision, piece: np.ndarray, cut: PieceCut) -> None:
         """The links of the tissue's springs ``piece`` crosses (the paper's links model)."""

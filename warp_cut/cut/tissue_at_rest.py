@@ -1,0 +1,62 @@
+"""Where the tissue is in the rest shape: the questions a cut event asks of rest points.
+
+Whether rest points lie in the tissue (on a live triangle, clear of every border) or in an
+opening (an earlier wound, beyond the tissue's edge), and where a new incision starts when the
+blade's swept disc reaches an earlier wound. Lengths in metres; points (k, 3).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..sim.model import TissueModel
+from .chart import RegionChart, barycentric
+from .incision import Incision
+from .region import border_edges, distance_to_segments
+
+__all__ = ["on_tissue_at_rest", "rest_point_on_tissue", "joined_start"]
+
+
+def on_tissue_at_rest(model: TissueModel, points: np.ndarray, nodes: np.ndarray, edge: float,
+                      own=frozenset()) -> np.ndarray:
+    """Mask (k,) of the rest points (k, 3) [m] lying on the rest shape of a live triangle at
+    ``nodes`` (within a hundredth of its size) and farther than ``edge`` [m] from the tissue's
+    borders (but those of the slit of nodes ``own``: an incision's own): in the tissue, not in
+    an opening nor at its edge."""
+    tris = np.array(model.index.triangles_at(nodes), dtype=np.int64)
+    if not len(tris):
+        return np.zeros(len(points), dtype=bool)
+    corners = model.triangle_table.column("corners")[tris]
+    rest = model.points[corners]
+    chart = RegionChart.of_triangles(rest)  # a point over a triangle, off its plane (a curve's chord) is on it
+    lam = barycentric(chart.to2d(points), chart.to2d(rest))
+    inside = np.nan_to_num(lam.min(axis=2), nan=-1.0).max(axis=1) >= -0.01
+    border = border_edges(model, tris)
+    if own:
+        border = border[~(np.isin(border[:, 0], list(own)) & np.isin(border[:, 1], list(own)))]
+    away = distance_to_segments(points, model.points[border[:, 0]], model.points[border[:, 1]]) > edge
+    return inside & away
+
+
+def rest_point_on_tissue(model: TissueModel, point: np.ndarray, spacing: float) -> bool:
+    """True if the rest point ``point`` (3,) [m] lies on the tissue at rest, a tenth of the
+    spacing [m] clear of its borders (the nodes near it found on the model: O(nodes), once per
+    incision)."""
+    near = np.flatnonzero(model.active & (np.linalg.norm(model.points - point, axis=1) <= 2.0 * spacing))
+    return bool(on_tissue_at_rest(model, point[None], near, 0.1 * spacing)[0])
+
+
+def joined_start(model: TissueModel, incisions: list[Incision], rest: np.ndarray, radius: float) -> np.ndarray:
+    """Where a new incision starts [m] (3,): at ``rest``, or at the nearest live node of an
+    earlier incision's slit within ``radius`` [m] of it (the blade's swept disc reaches that
+    wound, so the new slit starts in it and joins it, as a T's stem does)."""
+    best, nearest = None, radius
+    for inc in incisions:
+        nodes = np.fromiter((v for v in inc.slit_nodes if model.active[v]), dtype=np.int64)
+        if not len(nodes):
+            continue
+        dist = np.linalg.norm(model.points[nodes] - rest, axis=1)
+        k = int(np.argmin(dist))
+        if dist[k] < nearest:
+            best, nearest = int(nodes[k]), float(dist[k])
+    return rest if best is None else model.points[best].astype(np.float64).copy()
