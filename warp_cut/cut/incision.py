@@ -26,7 +26,7 @@ from ..mesh.geometry import cross3
 from .bezier import BezierChain, fit_chain
 from .tolerances import FIRST_STATION
 
-__all__ = ["Incision", "polyline_distance"]
+__all__ = ["Incision", "polyline_distance", "stations_from"]
 
 _SAMPLES_PER_SEGMENT = 48
 
@@ -67,6 +67,13 @@ def closest_on_dense_polyline(points: np.ndarray, poly: np.ndarray):
     best = np.argmin(dist, axis=1)
     rows = np.arange(len(points))
     return segments[rows, best], t[rows, best], closest[rows, best], dist[rows, best]
+
+
+def stations_from(first: float, upto: float, spacing: float) -> list[float]:
+    """Arc lengths [m] every ``spacing`` [m] from ``first`` up to ``upto`` (a rounding margin
+    of 1e-9 spacings keeps a station that falls on ``upto``)."""
+    count = int(np.floor((upto - first) / spacing + 1e-9)) + 1
+    return [first + spacing * k for k in range(max(0, count))]
 
 
 def _unit(v) -> np.ndarray:
@@ -331,8 +338,7 @@ class Incision:
             first = self.station_u[-1] + self.spacing
         else:
             first = self.resume_u + FIRST_STATION * self.spacing
-        count = int(np.floor((upto - first) / self.spacing + 1e-9)) + 1
-        return [first + self.spacing * k for k in range(max(0, count))]
+        return stations_from(first, upto, self.spacing)
 
     def add_station(self, u: float, left: int, right: int) -> None:
         """A new station at arc length ``u`` [m] with its lip nodes (-1 for a missing one)."""

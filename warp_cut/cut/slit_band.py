@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .incision import Incision
+from .incision import Incision, stations_from
 from .tolerances import FIRST_STATION, SNAP
 
 __all__ = ["BandPoint", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION",
@@ -226,12 +226,6 @@ def _junction(inc: Incision, u0: float, direction: int, reach: float, borders, p
     return left_point, chain, right_point
 
 
-def _stations_from(first: float, upto: float, spacing: float) -> list[float]:
-    """Arc lengths [m] every ``spacing`` from ``first`` up to ``upto``."""
-    count = int(np.floor((upto - first) / spacing + 1e-9)) + 1
-    return [first + spacing * k for k in range(max(0, count))]
-
-
 def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: list[float],
               pair: tuple[int, int] | None, pair_u: float, start: int | None, start_possible: bool,
               extension: float, margin: float, points: np.ndarray, borders=()) -> SlitBand:
@@ -272,7 +266,7 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
                 right.append(meet_right)
                 left[:0] = [BandPoint(points[w], 0, JUNCTION, ua, w) for w in chain]
             lo = ua + margin
-            wanted = _stations_from(ua + FIRST_STATION * inc.spacing, ub - margin, inc.spacing)
+            wanted = stations_from(ua + FIRST_STATION * inc.spacing, ub - margin, inc.spacing)
         hi = ub if last == len(u) - 1 else ub - margin
         for s in wanted:
             if lo < s <= hi + 1e-12:
