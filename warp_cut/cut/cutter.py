@@ -169,9 +169,7 @@ class Cutter:
         found = self.contact.last_crossing(poses, x[nodes], self.model.points[nodes], corners)
         point = None if found is None else self._point_ahead(sim, *found)
         if point is not None:
-            crossing = found[0]
-            self.current.extend(point.rest, 0.0, point.normal, contact_point=crossing.point,
-                                contact_normal=crossing.normal)
+            self._extend_path(point, found[0])
 
     def catch_up(self, poses: list[Tool]) -> None:
         """Take the tool poses of steps whose ``after_step`` this cutter did not see (a cutter
@@ -295,7 +293,7 @@ class Cutter:
             return
         t1 = time.perf_counter()
         inc = self.current
-        inc.extend(point.rest, 0.0, point.normal, contact_point=crossing.point, contact_normal=crossing.normal)
+        self._extend_path(point, crossing)
         t2 = time.perf_counter()
         self._cut(sim, inc, tool, inc.length - self._behind_the_blade(inc, tool), (t0, t1, t2))
 
@@ -314,6 +312,12 @@ class Cutter:
         if inc.retraces(point.rest, inc.sweep_radius):
             return None  # back over what is cut (a bouncing skin under a tilted blade)
         return point
+
+    def _extend_path(self, point: MaterialPoint, crossing: Crossing) -> None:
+        """Extend the current incision's path (and refit its curve) to the material ``point`` of
+        the blade's ``crossing``, keeping where the skin was there."""
+        self.current.extend(point.rest, 0.0, point.normal, contact_point=crossing.point,
+                            contact_normal=crossing.normal)
 
     def _behind_the_blade(self, inc: Incision, tool: Tool | None) -> float:
         """How far behind the blade's crossing [m] the slit's tip stays while the tool cuts: its
