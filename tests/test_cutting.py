@@ -1122,7 +1122,7 @@ def test_a_hole_round_the_lost_start_node_is_filled_from_the_lip_it_touches():
     Later, every event after the sixth was skipped as 'the fill does not lay the slit's points
     [(0, -1)]': the zigzag's refitted curve ran to one side of the old slit end, whose opening
     took in the next station's right lip (0.30 of the path opened); such a lip now moves out
-    of it (``remesh._clear_of_old_tip``)."""
+    of it (``event_band.clear_of_old_tip``)."""
     h = 0.0018193460701189281
     surface = cylinder(0.015515766392778598, 0.026, 0.026 / 0.015515766392778598, h)
     sim = unsupported_sim(surface, 0.0)

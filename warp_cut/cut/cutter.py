@@ -40,6 +40,7 @@ from ..sim.control import Tool
 from ..sim.model import TissueModel
 from ..sim.strokes import inside_cylinder
 from .contact import BladeContact, HitLists
+from .event_band import clearance, edge_clearance
 from .events import EventClock
 from .flips import flip_to_delaunay
 from .host import CutHost
@@ -47,7 +48,7 @@ from .incision import Incision
 from .islands import islands_from
 from .material_point import MaterialPoint
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
-from .remesh import PieceCut, SlitDoesNotFit, clearance, cut_piece, edge_clearance
+from .remesh import PieceCut, SlitDoesNotFit, cut_piece
 from .settings import CutSettings
 from .slit_band import samples_to_cut
 from .surface import Crossing

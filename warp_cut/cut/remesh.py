@@ -5,10 +5,11 @@ last event and, all in a flat chart of the rest surface:
 
 1. picks the region of triangles round the band and the tissue nodes the band sweeps
    (``region.Region``);
-2. lays out the slit's band (``slit_band.plan_band``: its lips at the new stations, its tip,
-   its start, or its ends in openings) and takes it out of the region's tissue (a polygon
-   difference, GEOS through Shapely): the tissue left is exactly the region's triangles less
-   the band, whatever earlier wounds or borders the band runs into, crosses or starts in;
+2. lays out the slit's band (``event_band``: ``slit_band.plan_band``'s lips at the new
+   stations, its tip, its start, or its ends in openings, with the end of the slit cut before)
+   and takes it out of the region's tissue (a polygon difference, GEOS through Shapely): the
+   tissue left is exactly the region's triangles less the band, whatever earlier wounds or
+   borders the band runs into, crosses or starts in;
 3. fills that tissue with triangles of at least ``REFINE_ANGLE_DEG`` (``fill.fill_region``,
    keeping the region's outline, the lips and the nodes inside); a fill that had to split an
    edge the region shares with the tissue outside grows the region across it, and a corner of
@@ -36,13 +37,12 @@ from ..sim.collision import pushed_out
 from ..sim.control import Tool
 from .chart import PiecewiseLinearMap, RegionChart
 from .classes import NodeClass, SpringClass
+from .event_band import add_old_tip, clear_of_old_tip, clearance, event_band
 from .fill import Fill, fill_region
 from .incision import Incision
-from .region import Region, border_edges
-from .slit_band import CUT_BEFORE, EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand, plan_band
+from .region import Region
+from .slit_band import EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand
 from .tolerances import (
-    CLEARANCE,
-    LAST_STATION,
     MATCH,
     MAX_GROWTH,
     MERGE,
@@ -54,7 +54,7 @@ from .tolerances import (
 )
 from .topology import NodePositions, TopologyEditor
 
-__all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece", "clearance", "edge_clearance"]
+__all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece"]
 
 
 class SlitDoesNotFit(Exception):
@@ -86,19 +86,6 @@ class PieceCut:
     growth: int = 0
     unrefined: int = 0
     met_border: bool = False
-
-
-def clearance(inc: Incision) -> float:
-    """How far from the curve [m] the swept band deletes tissue nodes: the sweep radius, at least
-    the lip offset plus ``CLEARANCE`` spacings."""
-    return max(inc.sweep_radius, inc.lip_offset + CLEARANCE * inc.spacing)
-
-
-def edge_clearance(inc: Incision) -> float:
-    """How far from a border of the tissue [m] a point of the curve must lie to count as in the
-    tissue: the lip offset plus ``CLEARANCE`` spacings (nearer, the band goes on into the
-    opening: no thinner strip of tissue is left between them)."""
-    return inc.lip_offset + CLEARANCE * inc.spacing
 
 
 @dataclass
@@ -148,14 +135,14 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
     protected = (inc.lip_node_set() | inc.slit_nodes) - provisional
     piece = inc.point_at(u)
     region = Region.around(model, piece, on_tissue, near, clearance(inc), REGION_MARGIN * s, protected, provisional)
-    band = _band(model, inc, u, on_tissue, first, near)
-    old_tip = _add_old_tip(model, inc, region, band)
+    band = event_band(model, inc, u, on_tissue, first, near)
+    old_tip = add_old_tip(model, inc, region, band)
     if not region.triangles:
         raise SlitDoesNotFit("no tissue around the piece")
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
     chart = RegionChart.of_triangles(model.points[corners])
     if old_tip is not None:
-        _clear_of_old_tip(band, old_tip, inc, chart, OLD_END_CLEARANCE * s)
+        clear_of_old_tip(band, old_tip, inc, chart, OLD_END_CLEARANCE * s)
     wedges: list = []
     for growth in range(MAX_GROWTH + 1):
         layout = _lay_out(model, inc, region, band, chart, wedges)
@@ -201,78 +188,6 @@ def _check_slit(layout: _Layout, band: SlitBand) -> None:
     missing = sorted(k for k in wanted if laid.get(k, 0) != 1)
     if missing:
         raise SlitDoesNotFit(f"the fill does not lay the slit's points {missing} once each")
-
-
-def _band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, first: bool,
-          near: np.ndarray) -> SlitBand:
-    """The event's band: onto the newest live lip pair when the piece starts at it, round the
-    start in the incision's first event (or while it has no pair yet), onto the borders of the
-    tissue at ``near`` (node slots) where it runs into an opening. Once the slit cut so far ends
-    in an opening (it has no tip), a piece starts from that opening's border, whatever the
-    first sample's clearance from it: the newest pair lies behind the opening."""
-    active = model.active
-    ends_open = inc.cut_point is not None and inc.tip_node < 0 and not first
-    k = -1 if ends_open else inc.last_pair(active)
-    pair = (inc.left[k], inc.right[k]) if k >= 0 else None
-    start = inc.start_node if inc.start_node >= 0 and active[inc.start_node] else None
-    start_possible = pair is None and not ends_open and ((first and inc.starts_on_tissue) or start is not None)
-    stations = inc.next_stations(float(u[-1]) - LAST_STATION * inc.spacing)
-    borders = [(a, b) for a, b in border_edges(model, model.index.triangles_at(near)).tolist()
-               if not (a in inc.slit_nodes and b in inc.slit_nodes)]
-    return plan_band(inc, u, on_tissue, stations=stations, pair=pair,
-                     pair_u=inc.station_u[k] if k >= 0 else 0.0, start=start, start_possible=start_possible,
-                     extension=edge_clearance(inc) + inc.lip_offset, margin=LAST_STATION * inc.spacing,
-                     points=model.points, borders=borders)
-
-
-def _add_old_tip(model, inc: Incision, region: Region, band: SlitBand) -> list | None:
-    """Add to the band the end of the slit cut before, past its newest lip pair: the slit's
-    outline from the left lip of that pair round the old tip to the right one (a polygon of
-    nodes), so that band and old slit join without a sliver of tissue between them. Returns
-    that run (None: no pair, or no such outline)."""
-    k = inc.last_pair(model.active)
-    if k < 0:
-        return None
-    left, right = inc.left[k], inc.right[k]
-    following = {}
-    for a, b in region.outline():
-        following.setdefault(a, []).append(b)
-    chain, v = [left], left
-    while v != right and len(chain) <= len(following) + 1:
-        nexts = [w for w in following.get(v, []) if w in inc.slit_nodes or w == right]
-        if not nexts:
-            return None
-        v = nexts[0]
-        chain.append(v)
-    if v != right or len(chain) < 3:
-        return None
-    run = [BandPoint(model.points[w], 0, CUT_BEFORE, 0.0, w) for w in chain]
-    band.runs.append(run)
-    return run
-
-
-def _clear_of_old_tip(band: SlitBand, old_run: list, inc: Incision, chart: RegionChart, margin: float) -> None:
-    """Keep the new lips out of the end of the slit cut before (``old_run``, the old tip's
-    outline): the curve, refitted as the blade moved on, can run a little to one side of the
-    curve the old tip was cut along, and a lip in that opening would be no node of the tissue
-    left. Such a lip moves out across the curve until it lies ``margin`` [m] outside the
-    opening, by up to a lip offset (one that cannot stays: the fill then refuses the slit and
-    a later event tries again, ``_check_slit``). Leaving the station out instead would lengthen
-    the slit's end without a lip pair, and a longer end catches the next stations' lips."""
-    opening = shapely.Polygon(chart.to2d(np.array([p.rest for p in old_run]))).buffer(margin)
-    steps = np.linspace(0.0, inc.lip_offset, 11)[1:]
-    for run in band.runs:
-        if run is old_run:
-            continue
-        for k, p in enumerate(run):
-            if p.station < 0 or p.node >= 0 or not opening.contains(shapely.Point(chart.to2d(p.rest))):
-                continue
-            across = p.rest - inc.point_at(p.u)[0]
-            across /= max(float(np.linalg.norm(across)), 1e-300)
-            moved = [p.rest + d * across for d in steps]
-            clear = [x for x in moved if not opening.contains(shapely.Point(chart.to2d(x)))]
-            if clear:
-                run[k] = BandPoint(clear[0], p.side, p.station, p.u, p.node)
 
 
 def _edge_of(ids: list, edge: tuple[int, int]) -> tuple[int, int]:

@@ -1,4 +1,4 @@
-"""warp_cut/cut/remesh.py: the parts of an event's re-mesh that work on a band before the fill.
+"""warp_cut/cut/event_band.py: the band one event takes out of the tissue, before the fill.
 
 Compared against: a straight incision along x with an old slit end (a wedge from its newest lip
 pair to an old tip cut along a curve 0.15 mm to one side), where the lips of the next station
@@ -10,8 +10,8 @@ import pytest
 import shapely
 
 from warp_cut.cut.chart import RegionChart
+from warp_cut.cut.event_band import clear_of_old_tip
 from warp_cut.cut.incision import Incision
-from warp_cut.cut.remesh import _clear_of_old_tip
 from warp_cut.cut.slit_band import CUT_BEFORE, TIP, BandPoint, SlitBand
 
 MM = 1e-3
@@ -52,7 +52,7 @@ def test_a_lip_beside_the_old_slit_end_moves_out_across_the_curve():
     stay where they were."""
     band, old = band_with_station_at_6mm()
     before = [p.rest.copy() for p in band.runs[0]]
-    _clear_of_old_tip(band, old, incision(), CHART, 0.2 * MM)
+    clear_of_old_tip(band, old, incision(), CHART, 0.2 * MM)
     run = band.runs[0]
     opening = shapely.Polygon([p.rest[:2] for p in old]).buffer(0.2 * MM)
     right = run[3]
@@ -73,5 +73,5 @@ def test_a_lip_that_cannot_clear_the_old_end_within_a_lip_offset_stays():
     refuses the slit, and a later event tries again)."""
     band, old = band_with_station_at_6mm()
     before = [p.rest.copy() for p in band.runs[0]]
-    _clear_of_old_tip(band, old, incision(), CHART, 1.0 * MM)
+    clear_of_old_tip(band, old, incision(), CHART, 1.0 * MM)
     assert all(np.array_equal(p.rest, b) for p, b in zip(band.runs[0], before))
