@@ -398,3 +398,16 @@ def test_report_draws_metrics_against_parameters(pool_run, tmp_path, capsys):
         assert img[:, :, :3].std() > 0.05
     assert main(["report", str(tmp_path)]) == 2
     assert "batch.json: not found" in capsys.readouterr().err
+
+
+def test_ctrl_c_is_raised_only_where_the_batch_checks_for_it():
+    # a KeyboardInterrupt at any bytecode could land inside concurrent.futures holding a
+    # future's lock (the batch then hung at exit) or half-way through writing a result
+    before = signal.getsignal(signal.SIGINT)
+    with batch._DeferredInterrupt() as interrupt:
+        interrupt.check()  # nothing yet
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)  # the handler runs; no KeyboardInterrupt here
+        with pytest.raises(KeyboardInterrupt):
+            interrupt.check()
+    assert signal.getsignal(signal.SIGINT) is before

@@ -13,9 +13,11 @@ import concurrent.futures as cf
 import contextlib
 import multiprocessing
 import os
+import signal
 import socket
 import sys
 import tempfile
+import threading
 import time
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -34,6 +36,47 @@ __all__ = ["run_batch", "run_scenario", "BatchSummary", "STATUSES"]
 
 CONNECT_TIMEOUT_S = 30.0
 """How long to try reaching a Dask scheduler before giving up [s]."""
+
+POLL_S = 0.1
+"""How often the batch looks for Ctrl-C while it waits for scenarios [s]."""
+
+
+def _ignore_interrupt() -> None:
+    """Initializer of a local worker: Ctrl-C is the batch's to handle (it stops the workers)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class _DeferredInterrupt:
+    """Ctrl-C noted by a signal handler and raised only where the batch checks for it.
+
+    A KeyboardInterrupt raised at any bytecode can land inside ``concurrent.futures`` while
+    it holds a future's lock, or half-way through writing a result; the batch would then hang
+    at exit or leave a half-written file. Here the handler only records the signal and
+    ``check`` raises KeyboardInterrupt between two scenarios' results. Off the main thread
+    (where no handler can be installed) it does nothing.
+    """
+
+    def __init__(self):
+        self.raised = False
+        self.previous = None
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGINT, self._note)
+        return self
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+        return False
+
+    def _note(self, signum, frame) -> None:
+        self.raised = True
+
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if Ctrl-C came since the batch started."""
+        if self.raised:
+            raise KeyboardInterrupt
 
 
 def _scene_file(task: dict, tmp: Path) -> Path:
@@ -143,7 +186,8 @@ def _open_executor(workers: int | None, scheduler: str | None):
         raise InputError(f"--workers must be >= 1, got {workers}")
     workers = workers or os.cpu_count() or 1
     # spawn: a fresh interpreter per worker, never a fork of a process with Warp initialised
-    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=_ignore_interrupt)
 
     def close(wait: bool) -> None:
         processes = list((getattr(pool, "_processes", None) or {}).values())
@@ -216,7 +260,7 @@ def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: s
     pool = _Executor(workers, scheduler)  # bad options fail before any write
     finished = False
     try:
-        with store:
+        with store, _DeferredInterrupt() as interrupt:
             todo = store.load_finished(retry_failed=retry_failed)
             store.write_results()
             summary.skipped = summary.total - len(todo)
@@ -225,7 +269,7 @@ def run_batch(sweep: Sweep, out_dir, *, workers: int | None = None, scheduler: s
             bar = _Progress(summary.total, summary.skipped,
                             summary.skipped - summary.counts["ok"], progress)
             try:
-                _run_scenarios(_Round(sweep, pool, store, summary, bar, usd), todo)
+                _run_scenarios(_Round(sweep, pool, store, summary, bar, usd, interrupt), todo)
             finally:
                 bar.close()
         finished = True
@@ -257,6 +301,7 @@ class _Round:
     summary: BatchSummary
     bar: _Progress
     usd: bool
+    interrupt: _DeferredInterrupt
 
     def run(self, scenarios: list) -> list:
         """Submit ``scenarios``, commit each outcome as it arrives; return those failed by a
@@ -267,22 +312,36 @@ class _Round:
                 futures[self.pool.executor.submit(run_scenario, {
                     "scene_text": self.sweep.base_text, "scene_path": str(self.sweep.base_path),
                     "overrides": self.sweep.overrides(s), "usd": self.usd})] = s
-            for future in cf.as_completed(futures):
-                scenario = futures.pop(future)
-                try:
-                    outcome = future.result()
-                except BrokenProcessPool:
-                    broken.add(scenario.id)
-                except Exception as exc:  # noqa: BLE001 - the worker, not the scenario, failed
-                    self.lost(scenario, f"{type(exc).__name__}: {exc}")
-                else:
-                    self.store.commit(scenario, outcome)
-                    self.summary.counts[outcome["status"]] += 1
-                    self.bar.update(scenario.id, outcome["status"])
+            for future in self._completed(futures):
+                self.interrupt.check()
+                self.collect(futures.pop(future), future, broken)
         finally:
             for future in futures:
                 future.cancel()
         return [s for s in scenarios if s.id in broken]
+
+    def _completed(self, futures: dict):
+        """Yield ``futures`` as they finish (in submission order when several do at once),
+        checking for Ctrl-C every ``POLL_S``."""
+        pending = set(futures)
+        order = {future: i for i, future in enumerate(futures)}
+        while pending:
+            done, pending = cf.wait(pending, timeout=POLL_S, return_when=cf.FIRST_COMPLETED)
+            self.interrupt.check()
+            yield from sorted(done, key=order.__getitem__)
+
+    def collect(self, scenario, future, broken: set) -> None:
+        """Commit the outcome of a finished ``future``, or note why it has none."""
+        try:
+            outcome = future.result()
+        except BrokenProcessPool:
+            broken.add(scenario.id)
+        except Exception as exc:  # noqa: BLE001 - the worker, not the scenario, failed
+            self.lost(scenario, f"{type(exc).__name__}: {exc}")
+        else:
+            self.store.commit(scenario, outcome)
+            self.summary.counts[outcome["status"]] += 1
+            self.bar.update(scenario.id, outcome["status"])
 
     def lost(self, scenario, message: str) -> None:
         self.summary.lost.append((scenario.id, message))
