@@ -1290,3 +1290,19 @@ def test_a_thick_zigzag_across_an_earlier_cut_joins_it():
     tool = (45.511919910802334, 0.0028014336635634866, 0.0019813485704094536, 0.02526845832930826,
             0.039908469957029465)
     assert_cut_guarantees(sim, surface, cut_stroke(sim, surface, second, tool), joins=True)
+
+
+def test_a_fleck_a_zigzag_corner_trims_off_is_removed_not_left_as_a_hole():
+    """A zigzag (r 0.9 mm, 72 degrees, 6.6 mm/s) on a turned 2.2 mm grid, gravity and the
+    foundation on (fuzz seed 1, case 3553598660): at a corner one event left a lone triangle of
+    three lip nodes, 0.17 x 0.11 mm, apart from the tissue, and it stayed as one more border
+    loop (a hole) after the stroke. It held the newest lip pair, which the next event closes
+    onto: a scrap (``SCRAP_AREA``) waits while it does, and goes after."""
+    surface = flat_grid(0.04180556395866199, 0.002155298933406245, angle=0.9054308440633906)
+    sim = supported_sim(surface, 0.0174190527701845)
+    path = strokes.zigzag([0.0010852060343109259, 0.007539082805061414], 5.610058160419436, 0.016947978218351617,
+                          0.004421071785975865, 0.013283373429235103)
+    tool = (71.71438862510428, 0.0008979414892694119, 0.0017136699107866305, 0.006580731192383419,
+            0.035453971742899194)
+    assert_no_hole_after(sim, surface, path, tool, min_coverage=0.85)
+    assert sim.cutter.totals["removed_scraps"] >= 1

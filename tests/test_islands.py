@@ -1,4 +1,4 @@
-"""warp_cut/cut/islands.py: the pieces of skin a cut frees.
+"""warp_cut/cut/islands.py: the pieces of skin a cut frees, and the scraps an edit trims off.
 
 Compared against: the connected pieces of hand-built meshes (a sheet with separate small
 pieces beside it, a piece held by a single node, a pinned piece, two pieces of equal size),
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from warp_cut import TissueModel
-from warp_cut.cut.islands import islands_from
+from warp_cut.cut.islands import islands_from, scraps_from
 from warp_cut.cut.topology import TopologyEditor
 
 
@@ -145,3 +145,41 @@ def test_the_search_stops_at_the_limit_and_costs_the_small_pieces_not_the_sheet(
     assert len(parts[0]) == 1682
     assert islands_from(model, [parts[0][800], parts[1][0]], limit=100) == [set(parts[1])]
     assert islands_from(model, [parts[0][800], parts[1][0]], limit=1) == []
+
+
+MM2 = 1e-6  # one square of the grids here [m^2]
+
+
+def test_a_small_separate_piece_is_a_scrap_and_the_sheet_is_not():
+    """A 2-triangle piece of 1 mm^2 beside an 8 x 8 sheet: a scrap below 1.5 mm^2 (the union-find's
+    piece), none below 0.9 mm^2; the sheet never, however large the area allowed."""
+    model, parts = sheet_with_pieces([2])
+    seeds = [parts[0][3], parts[1][0]]
+    assert scraps_from(model, seeds, 1.5 * MM2, 6) == [set(parts[1])]
+    assert set(parts[1]) in pieces_by_shared_nodes(model)
+    assert scraps_from(model, seeds, 0.9 * MM2, 6) == []
+    assert scraps_from(model, parts[0], 1.0, 6) == []
+
+
+def test_a_scrap_is_searched_up_to_the_triangle_count():
+    """A 3 x 3 node piece (8 triangles, 4 mm^2): no scrap when at most 6 triangles are searched,
+    a scrap when 8 are."""
+    model, parts = sheet_with_pieces([3])
+    assert scraps_from(model, parts[1][:1], 10 * MM2, 6) == []
+    assert scraps_from(model, parts[1][:1], 10 * MM2, 8) == [set(parts[1])]
+
+
+def test_a_small_piece_held_by_one_node_or_dead_is_no_scrap():
+    """A triangle touching the sheet at one corner is held; a deleted seed starts nothing."""
+    points, tri = grid(4)
+    extra = np.array([[4e-3, 3e-3, 0.0], [4e-3, 4e-3, 0.0]])
+    n = len(points)
+    tri = np.concatenate([tri, [[15, n, n + 1]]])
+    model = TissueModel.from_triangles(np.concatenate([points, extra]), tri, pinned="none")
+    assert scraps_from(model, [len(tri) - 1], 10 * MM2, 6) == []
+    model, parts = sheet_with_pieces([2])
+    editor = TopologyEditor(model)
+    editor.begin()
+    editor.delete_triangles(parts[1])
+    editor.finish()
+    assert scraps_from(model, parts[1], 10 * MM2, 6) == []

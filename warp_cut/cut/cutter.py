@@ -45,7 +45,7 @@ from .events import EventClock
 from .flips import flip_to_delaunay
 from .host import CutHost
 from .incision import Incision
-from .islands import islands_from
+from .islands import islands_from, scraps_from
 from .material_point import MaterialPoint
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
 from .remesh import PieceCut, SlitDoesNotFit, cut_piece
@@ -53,7 +53,7 @@ from .settings import CutSettings
 from .slit_band import samples_to_cut
 from .surface import Crossing
 from .tissue_at_rest import joined_start, on_tissue_at_rest, rest_point_on_tissue
-from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE
+from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
 from .topology import NodePositions, TopologyEditor
 from .wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
@@ -67,7 +67,7 @@ STAGES = ("locate", "stage2_bezier", "stage1_swept_band", "stage3_fill", "device
 """Names of the timed parts of a cut event (latency in metrics.json)."""
 
 _TOTALS = ("deleted_nodes", "deleted_springs", "residual_links", "carried_links", "lost_links", "lip_nodes",
-           "inserted_nodes", "new_springs", "removed_fragments", "removed_islands", "region_growths",
+           "inserted_nodes", "new_springs", "removed_fragments", "removed_islands", "removed_scraps", "region_growths",
            "unrefined_triangles", "delaunay_flips", "events", "skipped_events")
 
 
@@ -114,6 +114,9 @@ class Cutter:
         self.totals = dict.fromkeys(_TOTALS, 0)
         self.new_triangles: set[int] = set()
         """Live triangles the cut made (slots)."""
+        self._waiting_scraps: set[int] = set()
+        """Triangles (slots) of scraps left while they hold the newest lip pair of the incision
+        being cut (its next event closes onto it); removed by a later event or at its end."""
         self.skipped: dict[str, int] = {}
         """Why events were left for the next one (the slit did not fit its region): reason -> count."""
         self._loops_before = border_loop_count(model.triangles)
@@ -253,8 +256,9 @@ class Cutter:
                 break
         self.editor.begin()
         settle_pending_links(self.editor, inc, reach=np.inf)
+        scraps = self._remove_scraps(set(), keep=set())  # no event closes onto them now
         flips = self._settle_prestressed(sim)
-        if not self.editor.report.residual_links and not flips and not self.editor.policy.prestressed:
+        if not (self.editor.report.residual_links or flips or scraps or self.editor.policy.prestressed):
             return
         self.totals["delaunay_flips"] += flips
         positions = NodePositions(self._positions_view(sim))
@@ -384,7 +388,7 @@ class Cutter:
         split = editor.split_pinched_nodes(editor.touched_nodes, positions)
         cut.inserted += split
         cut.met_border |= bool(split)  # a node split apart may be all that held a piece
-        self._free_islands(cut)
+        self._free_islands(cut, set() if final else self._newest_lips(inc))
         report = editor.finish(positions=positions)
         takers = cut.lips + cut.inserted + list(editor.touched_nodes)
         self.totals["lost_links"] += carry_links(editor, inc, report, takers, reach=2.0 * self.spacing)
@@ -403,14 +407,41 @@ class Cutter:
         if self.originals is not None:
             link_crossed_springs(self.editor, inc, self.originals, piece, self._linked[self.incisions.index(inc)])
 
-    def _free_islands(self, cut: PieceCut) -> None:
-        """Remove the pieces of skin this event cut free (unless the settings keep them)."""
+    def _free_islands(self, cut: PieceCut, keep: set[int]) -> None:
+        """Remove the scraps this event trimmed off (but those holding a node of ``keep``) and
+        the pieces of skin it cut free (unless the settings keep them)."""
+        editor = self.editor
+        near = set(editor.report.new_triangles).union(*(editor.node_triangles[v] for v in editor.touched_nodes))
+        self._remove_scraps(near, keep)
         if not cut.met_border or self.settings.keep_islands:
             return
-        for island in islands_from(self.model, self.editor.report.new_triangles):
-            corners = self.model.triangle_table.column("corners")[np.fromiter(island, dtype=np.int64)]
-            self.editor.delete_nodes(np.unique(corners).tolist())
+        for island in islands_from(self.model, editor.report.new_triangles):
+            self._remove_piece(island)
             self.totals["removed_islands"] += 1
+
+    def _remove_scraps(self, seeds: set[int], keep: set[int]) -> int:
+        """Remove the scraps (``SCRAP_AREA``) the triangle slots ``seeds`` or the waiting ones
+        belong to; one holding a node of ``keep`` waits. Returns the scraps removed."""
+        seeds, self._waiting_scraps = seeds | self._waiting_scraps, set()
+        removed = 0
+        for scrap in scraps_from(self.model, seeds, SCRAP_AREA * self.spacing**2, SCRAP_TRIANGLES):
+            if keep & set(self.model.triangle_table.column("corners")[list(scrap)].ravel().tolist()):
+                self._waiting_scraps |= scrap
+                continue
+            self._remove_piece(scrap)
+            removed += 1
+        self.totals["removed_scraps"] += removed
+        return removed
+
+    def _newest_lips(self, inc: Incision) -> set[int]:
+        """The two lip nodes of ``inc``'s newest lip pair (none if it has none)."""
+        k = inc.last_pair(self.model.active)
+        return {inc.left[k], inc.right[k]} if k >= 0 else set()
+
+    def _remove_piece(self, triangles: set[int]) -> None:
+        """Delete the nodes (and so the springs and triangles) of the triangle slots ``triangles``."""
+        corners = self.model.triangle_table.column("corners")[np.fromiter(triangles, dtype=np.int64)]
+        self.editor.delete_nodes(np.unique(corners).tolist())
 
     def _count(self, report, cut: PieceCut) -> None:
         tot = self.totals

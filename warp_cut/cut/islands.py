@@ -1,4 +1,5 @@
-"""Pieces of skin a cut frees: an excision's island, found after the edit that closes it.
+"""Pieces of skin a cut frees: an excision's island, found after the edit that closes it, and
+the scraps an edit trims off.
 
 When a slit runs into an opening (an earlier wound, the tissue's edge), the piece of tissue it
 bounds may come free. The triangles joined through shared edges to those the edit made are
@@ -14,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["islands_from"]
+__all__ = ["islands_from", "scraps_from"]
 
 
 def _neighbours(model, t: int) -> set[int]:
@@ -80,3 +81,31 @@ def _free(model, triangles: set[int]) -> bool:
     """True if a piece holds no pinned node (a pinned one holds it in place: not freed)."""
     corners = model.triangle_table.column("corners")[np.fromiter(triangles, dtype=np.int64)]
     return not model.pinned[np.unique(corners)].any()
+
+
+def scraps_from(model, seeds, max_area: float, max_triangles: int) -> list[set[int]]:
+    """The pieces of at most ``max_triangles`` triangles, of rest area under ``max_area`` [m^2],
+    that the live triangles ``seeds`` belong to and that touch no other triangle: flecks an edit
+    cut off, each as its set of triangle slots. Costs at most ``max_triangles`` + 1 triangles
+    per seed."""
+    alive = model.triangle_table.alive
+    seen: set[int] = set()
+    scraps = []
+    for seed in (int(t) for t in seeds):
+        if seed in seen or not alive[seed]:
+            continue
+        piece, front = {seed}, [seed]
+        while front and len(piece) <= max_triangles:
+            front = [n for t in front for n in _neighbours(model, t) if n not in piece]
+            piece.update(front)
+        seen |= piece
+        if not front and _rest_area(model, piece) < max_area:
+            scraps.append(piece)
+    return scraps
+
+
+def _rest_area(model, triangles: set[int]) -> float:
+    """Rest area [m^2] of the triangle slots ``triangles``."""
+    corners = model.triangle_table.column("corners")[np.fromiter(triangles, dtype=np.int64)]
+    a, b, c = (model.points[corners[:, k]] for k in range(3))
+    return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())

@@ -76,3 +76,11 @@ OLD_END_CLEARANCE = 0.02
 """Least distance [x s] of a new lip from the end of the slit cut before (past its newest lip
 pair): a lip nearer, or in that opening (the refitted curve can run a little to one side of
 the curve the old end was cut along), moves out across the curve (``remesh``)."""
+
+SCRAP_AREA = 0.25
+"""A piece of tissue an event leaves apart from the rest with a rest area below this [x s^2]
+(about half a regular triangle of side s) is a scrap, removed whatever the settings say: a fleck
+the cut trimmed off, not a piece of skin (``islands.scraps_from``)."""
+
+SCRAP_TRIANGLES = 6
+"""A piece is searched as a scrap up to this many triangles (a larger one is not a scrap)."""
