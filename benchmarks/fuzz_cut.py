@@ -232,6 +232,10 @@ def main(argv=None) -> int:
         for row in rows:
             if row["traceback"]:
                 print(row["traceback"])
+        if "settled_folded" in rows[-1]:
+            print(f"settled {SETTLE_S} s: {rows[-1]['settled_folded']} triangles folded over "
+                  f"({rows[-1]['settled_folded_cut']} made by the cut), the cut's smallest angle "
+                  f"{rows[-1]['settled_min_cut_angle_deg']:.1f} deg")
         return 0
     else:
         rows = run_fuzz(args)

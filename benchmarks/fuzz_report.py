@@ -224,8 +224,8 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     lines = [f"# {title}", "", f"Command: `{command}`", "",
-             "Coverage: fraction of the stroke's ideal in-skin trace at which wound-border edges pass "
-             "within 0.5 spacing + 0.25 tool radius on both sides (parameter plane, rest positions; "
+             "Coverage: fraction of the stroke's ideal in-skin trace at which an opening the stroke made "
+             "lies within 0.5 spacing + 0.25 tool radius across the trace (parameter plane, rest positions; "
              "samples over an opening earlier strokes made are left out, a stroke whose whole trace is over one "
              "has none; see warp_cut/verify/stroke_quality.py). Holes: border loops a stroke added "
              "beyond one per incision, counted on the mesh after the tool left. "

@@ -197,9 +197,10 @@ def summary(rows: list[dict]) -> list[dict]:
 DEFINITIONS = """\
 One row per stroke; the state columns are measured after that stroke (the wound so far).
 
-- coverage: fraction of the stroke's ideal in-skin trace at which wound-border edges pass
-  within 0.5 spacing + 0.25 tool radius on both sides (parameter plane, rest positions;
-  samples over an opening an earlier stroke made are left out; `verify/stroke_quality.py`).
+- coverage: fraction of the stroke's ideal in-skin trace at which an opening the stroke made
+  lies within 0.5 spacing + 0.25 tool radius across the trace (parameter plane, rest
+  positions; samples over an opening an earlier stroke made are left out;
+  `verify/stroke_quality.py`).
 - min_rest_angle_deg / min_current_angle_deg: smallest angle of the live triangles the cut
   made (slot >= the original triangle count) in the rest shape (`model.points`) and as the skin
   lies (`sim.positions`); rest_slivers: those below 10 deg at rest.

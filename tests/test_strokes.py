@@ -162,6 +162,7 @@ def stroke_on(surf, start, length):
 
 @pytest.mark.parametrize("start, length, want, tol", [
     ([-0.006, 0.0007], 0.012, 1.0, 0.0),      # the cut itself
+    ([-0.006, 0.0017], 0.012, 1.0, 0.0),      # 1 mm beside it (tol 1.25 mm): the slit is within reach
     ([-0.006, 0.0047], 0.012, 0.0, 0.0),      # 4 mm beside it: intact skin
     ([-0.012, 0.0007], 0.024, 0.5, 0.05),     # twice as long: half open
 ])
@@ -169,7 +170,8 @@ def test_coverage_on_a_known_cut(straight_cut, start, length, want, tol):
     surf, model, border = straight_cut
     wound = wound_edges(model, border)
     assert len(wound) > 0
-    got = coverage(stroke_on(surf, start, length), surf, model.points, wound, coverage_tolerance(H, 0.001))
+    got = coverage(stroke_on(surf, start, length), surf, model.points, wound, coverage_tolerance(H, 0.001),
+                   skin_at_rest(model, surf))
     assert got == pytest.approx(want, abs=tol)
 
 
@@ -178,34 +180,42 @@ def test_coverage_leaves_out_the_trace_over_an_opening(straight_cut):
     no triangle lies between the lips at rest) has no skin under it (nan); one beside the cut
     is all over skin and counts as before; one along the cut running 4 mm past each of its
     ends counts only its samples beyond the ends (the 12 mm in the slit, 0.6 of it, are
-    covered without the skin), and none of them is open: past a slit's end both lips meet at
-    its end node.
+    covered without the skin), and none of them is open: past a slit's end the segment across
+    the trace runs over intact skin.
 
     One crossing the cut (samples every s / 20 = 0.1 mm, placed 0.05 mm off the lip lines at
-    y = 0.7 +- lip_offset = 0.45, 0.95 mm) leaves out exactly the 5 samples between the lips:
-    its fraction is a count over the 95 others, and it lost at most those 5 covered ones. Of
-    the 95, only those within tol of a lip line can see wound edges on both sides (13 below
-    the slit, 13 above): where a lip line crosses the trace its nearest point lies on the
-    trace, on a side only by the rounding of the lips' rest positions (nanometres: a cut's lip
-    lines are straight to that), so the exact fraction is not asserted."""
+    y = 0.7 +- lip_offset = 0.45, 0.95 mm) has the slit's opening within reach only at the 5
+    samples between the lips: the segment across each other sample runs parallel to the slit,
+    over skin. With the skin at its start it leaves those 5 out (0 of 95); without, they are
+    the covered ones (5 of 100)."""
     surf, model, border = straight_cut
     wound, tol = wound_edges(model, border), coverage_tolerance(H, 0.001)
-    skin = skin_at_rest(model, surf)
-    assert np.isnan(coverage(stroke_on(surf, [-0.005, 0.0007], 0.010), surf, model.points, wound, tol, skin))
+    now = skin_at_rest(model, surf)
+    assert np.isnan(coverage(stroke_on(surf, [-0.005, 0.0007], 0.010), surf, model.points, wound, tol, now, now))
     beside = stroke_on(surf, [-0.006, 0.0047], 0.012)
-    assert coverage(beside, surf, model.points, wound, tol, skin) == coverage(beside, surf, model.points, wound, tol)
+    assert coverage(beside, surf, model.points, wound, tol, now, now) == coverage(beside, surf, model.points,
+                                                                                wound, tol, now)
     overhang = stroke_on(surf, [-0.010, 0.0007], 0.020)
-    assert coverage(overhang, surf, model.points, wound, tol) == pytest.approx(0.6, abs=0.01)
-    assert coverage(overhang, surf, model.points, wound, tol, skin) == 0.0
+    assert coverage(overhang, surf, model.points, wound, tol, now) == pytest.approx(0.6, abs=0.01)
+    assert coverage(overhang, surf, model.points, wound, tol, now, now) == 0.0
     across = K.Stroke(surf, K.line([0.0, -0.00405], np.pi / 2, 0.010), tilt=1.0, radius=0.001, depth=0.002, speed=0.01)
     assert tol == pytest.approx(0.00125)
-    samples, opening = 100, 5  # 10 mm / 0.1 mm; y = 0.5 ... 0.9 mm lie between the lips
-    near = 2 * 13  # within tol = 1.25 mm of a lip line, on skin: y = -0.8 ... 0.4 and 1.0 ... 2.2 mm
-    on_skin = coverage(across, surf, model.points, wound, tol, skin) * (samples - opening)
-    everywhere = coverage(across, surf, model.points, wound, tol) * samples
-    assert on_skin == pytest.approx(round(on_skin), abs=1e-9)  # a count over the 95 samples on skin
-    assert 0 <= round(everywhere) - round(on_skin) <= opening
-    assert round(on_skin) <= near
+    assert coverage(across, surf, model.points, wound, tol, now, now) == 0.0
+    assert coverage(across, surf, model.points, wound, tol, now) == pytest.approx(5 / 100)
+
+
+def test_coverage_counts_only_openings_the_stroke_made(straight_cut):
+    """The finished cut is an earlier wound when the stroke begins (its skin then is the skin
+    now): a trace 1 mm beside it, within reach of its opening, is not open; a trace on intact
+    skin that once was skin and is now an opening (here: the skin before the cut, given as the
+    skin at the start) is."""
+    surf, model, border = straight_cut
+    wound, tol = wound_edges(model, border), coverage_tolerance(H, 0.001)
+    now = skin_at_rest(model, surf)
+    beside = stroke_on(surf, [-0.006, 0.0017], 0.012)
+    assert coverage(beside, surf, model.points, wound, tol, now, now) == 0.0
+    whole = skin_at_rest(wc.TissueModel.from_surface(surf), surf)
+    assert coverage(beside, surf, model.points, wound, tol, now, whole) == 1.0
 
 
 def test_points_over_skin():
@@ -220,3 +230,23 @@ def test_uncut_tissue_has_no_wound():
     surf = S.flat_grid(0.03, H)
     model = wc.TissueModel.from_surface(surf)
     assert len(wound_edges(model, original_border(model))) == 0
+
+
+def test_a_closed_tube_lies_flat_in_the_parameter_plane():
+    """A closed cylinder's triangles in the parameter plane (``in_plane``): once unwrapped, their
+    areas add up to the tube's (length x circumference; a triangle across the seam stretched over
+    the whole plane would add a circumference's worth), and every point of the plane's period,
+    the seam's two sides included, lies over one of them (a triangle reaching past the seam is
+    repeated one period over). Jittered: nodes lie on both sides of the seam."""
+    radius, length = 0.01, 0.03
+    surf = S.cylinder(radius, length, 2 * np.pi, H, jitter=0.4, seed=3)
+    model = wc.TissueModel.from_surface(surf)
+    skin = skin_at_rest(model, surf)
+    t = len(model.triangles)
+    assert len(skin) > t  # a triangle across the seam once more
+    e1, e2 = skin[:t, 1] - skin[:t, 0], skin[:t, 2] - skin[:t, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+    period = 2 * np.pi * radius
+    assert area == pytest.approx(length * period, rel=1e-9)
+    u, v = np.meshgrid(np.linspace(-0.49 * length, 0.49 * length, 25), np.linspace(-0.5, 0.5, 81) * period)
+    assert _over_skin(np.column_stack([u.ravel(), v.ravel()]), skin).all()

@@ -99,8 +99,8 @@ def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
     result.incisions = len(cutter.incisions) - before["incisions"]
     mine = cutter.incisions[before["incisions"]:]
     tol = coverage_tolerance(surface.spacing, stroke.radius)
-    result.coverage = coverage(stroke, surface, model.points, wound_edges(model, border_keys), tol, before["skin"],
-                               skin_at_rest(model, surface))
+    result.coverage = coverage(stroke, surface, model.points, wound_edges(model, border_keys), tol,
+                               skin_at_rest(model, surface), before["skin"])
     result.curve_coverage = curve_coverage(stroke, surface, [np.array(i.path) for i in mine], tol)
     result.lip_deviation_max, result.lip_deviation_median, result.lip_nodes = lip_deviation(
         stroke, model, before["nodes"])

@@ -7,15 +7,18 @@ Definitions (the measuring stick for cuts on curved and irregular skin):
   holes left open).
 * coverage - the fraction of the stroke's ideal in-skin trace (``Stroke.trace``, from where
   the tool axis enters the skin to where it leaves, cut into pieces of about ``spacing / 20``
-  of arc length, sampled at their middles)
-  at which the skin is open: a sample is covered when wound-border edges pass within
-  ``tol`` of it strictly on both sides of the trace (left and right of the travel direction,
-  so the trace beyond the end of a slit, where both sides' nearest point is the slit's end
-  node, is not open). The test
-  is made in the surface's parameter plane with the nodes' rest positions (where the cut made
-  them), so neither sag nor the wound gaping moves the lips away: the question is whether
-  the material was separated along the path. ``tol`` = 0.5 spacing + the lip offset
-  (0.25 tool radius, ``CutSettings`` default): a lip pair straddles the cut at 0.25 r.
+  of arc length, sampled at their middles) at which the skin is open: a sample is covered when
+  the segment across the trace through it (perpendicular to the travel direction, ``tol`` to
+  either side) reaches a new opening - a place that is not skin now (no live triangle over it
+  at rest) but was skin when the stroke began. The segment is cut where it crosses wound-border
+  edges and each piece is tested at its middle, so a slit narrower than any sampling is found.
+  Past the end of a slit the segment runs across intact skin (the slit's lips meet at its end
+  node behind it): not open. An earlier wound's opening is not new: a stroke running beside an
+  earlier wound is not counted open there. The test is made in the surface's parameter plane
+  with the nodes' rest positions (where the cut made them), so neither sag nor the wound gaping
+  moves the lips away: the question is whether the material was separated along the path.
+  ``tol`` = 0.5 spacing + the lip offset (0.25 tool radius, ``CutSettings`` default): a slit
+  up to half a spacing beside the trace (the tool pushed the skin aside as it cut) counts.
   Samples over no live triangle when the stroke began (at rest, in the parameter plane: an
   opening earlier strokes made, e.g. an island of skin three cuts cut out) are left out: the
   tool passes no skin there. nan if the whole trace is over such openings.
@@ -38,15 +41,8 @@ from ..mesh.geometry import SLIVER_DEG, triangle_min_angles
 from ..mesh.triangulate import border_loop_count as loops_of
 from ..mesh.triangulate import boundary_edges
 
-__all__ = ["original_border", "wound_edges", "skin_at_rest", "coverage", "curve_coverage", "lip_deviation",
+__all__ = ["original_border", "wound_edges", "skin_at_rest", "in_plane", "coverage", "curve_coverage", "lip_deviation",
            "new_slivers", "segment_distances", "border_loop_count"]
-
-SIDE_FRACTION = 1e-9
-"""A wound point counts as left (right) of the trace when it lies strictly (more than this
-fraction of the spacing, a rounding margin) to that side: beyond the end of a slit the
-closest wound point on either side is the slit's end node, on one side of the trace at most,
-so the trace is not taken as open beyond the slit, while inside it the two lips are."""
-
 
 def _keys(pairs: np.ndarray, n: int) -> np.ndarray:
     p = np.sort(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), axis=1)
@@ -83,9 +79,29 @@ def _trace_samples(stroke, spacing: float):
 
 
 def skin_at_rest(model, surface) -> np.ndarray:
-    """The live triangles at their rest positions in the surface's parameter plane, (t, 3, 2)."""
-    corners = model.triangles
-    return surface.uv_of(model.points[corners.ravel()]).reshape(-1, 3, 2)
+    """The live triangles at their rest positions in the surface's parameter plane, (t', 3, 2)
+    (on a closed tube, those across the seam once more on its other side: ``in_plane``)."""
+    return in_plane(surface, model.points[model.triangles])
+
+
+def in_plane(surface, shapes: np.ndarray) -> np.ndarray:
+    """Triangles or segments ``shapes`` (k, c, 3) [m] in the surface's parameter plane, (k', c, 2).
+
+    Where v is periodic (a closed tube's ``RectDomain.period_v``), each shape's corners are
+    brought within half a period of its first corner (one across the seam is not stretched
+    over the whole plane), and a shape reaching past +-half a period is repeated one period
+    over, so points near the seam on either side meet it."""
+    k, c = shapes.shape[:2]
+    uv = surface.uv_of(np.asarray(shapes, dtype=np.float64).reshape(-1, 3)).reshape(k, c, 2)
+    period = getattr(surface.domain, "period_v", None)
+    if not period or not k:
+        return uv
+    v = uv[..., 1]
+    v -= period * np.round((v - v[:, :1]) / period)
+    past = np.abs(v).max(axis=1) > 0.5 * period
+    again = uv[past].copy()
+    again[..., 1] -= period * np.sign(again[:, 0, 1])[:, None]
+    return np.concatenate([uv, again])
 
 
 def _over_skin(uv: np.ndarray, skin: np.ndarray) -> np.ndarray:
@@ -103,36 +119,58 @@ def _over_skin(uv: np.ndarray, skin: np.ndarray) -> np.ndarray:
     return inside
 
 
-def coverage(stroke, surface, rest_points, wound, tol: float, skin: np.ndarray | None = None,
-             skin_now: np.ndarray | None = None) -> float:
-    """Fraction of the trace open on both sides within ``tol`` [m] (see the module docstring).
-    rest_points: node rest positions (n, 3) [m]; wound: (e, 2) wound-border node pairs; skin:
-    ``skin_at_rest`` when the stroke began (None: the whole trace counts); skin_now:
-    ``skin_at_rest`` after the stroke, where given a side with no skin ``tol`` away (an island
-    the stroke freed and removed) counts as open."""
+def coverage(stroke, surface, rest_points, wound, tol: float, skin_now: np.ndarray,
+             skin: np.ndarray | None = None) -> float:
+    """Fraction of the trace at which a new opening lies within ``tol`` [m] across it (see the
+    module docstring).
+
+    Args:
+        stroke: The stroke (its trace in the parameter plane).
+        surface: The surface (its parameter plane).
+        rest_points: Node rest positions (n, 3) [m].
+        wound: (e, 2) wound-border node pairs (``wound_edges``).
+        tol: Reach [m] to either side of the trace.
+        skin_now: ``skin_at_rest`` after the stroke.
+        skin: ``skin_at_rest`` when the stroke began (None: everywhere was skin).
+    """
     uv, direction = _trace_samples(stroke, surface.spacing)
     if skin is not None:
         keep = _over_skin(uv, skin)
         if not keep.any():
             return float("nan")
         uv, direction = uv[keep], direction[keep]
-    if not len(wound):
-        return 0.0
-    ends = surface.uv_of(np.asarray(rest_points)[wound.ravel()]).reshape(-1, 2, 2)
-    covered = np.zeros(len(uv), dtype=bool)
-    for chunk in np.array_split(np.arange(len(uv)), max(1, len(uv) // 256)):
-        dist, closest = segment_distances(uv[chunk], ends[:, 0], ends[:, 1])
-        rel = closest - uv[chunk][:, None, :]
-        side = direction[chunk][:, None, 0] * rel[..., 1] - direction[chunk][:, None, 1] * rel[..., 0]
-        near = dist <= tol
-        eps = SIDE_FRACTION * surface.spacing
-        left, right = (near & (side > eps)).any(axis=1), (near & (side < -eps)).any(axis=1)
-        if skin_now is not None:
-            across = np.stack([-direction[chunk][:, 1], direction[chunk][:, 0]], axis=1) * tol
-            left |= ~_over_skin(uv[chunk] + across, skin_now)
-            right |= ~_over_skin(uv[chunk] - across, skin_now)
-        covered[chunk] = left & right
-    return float(covered.mean())
+    across = np.stack([-direction[:, 1], direction[:, 0]], axis=1) * tol
+    ends = in_plane(surface, np.asarray(rest_points)[np.asarray(wound, dtype=np.int64).reshape(-1, 2)])
+    chunks = np.array_split(np.arange(len(uv)), max(1, len(uv) // 256))
+    found = [_piece_middles(uv[c] - across[c], uv[c] + across[c], ends) for c in chunks]
+    sample = np.concatenate([c[j] for c, (j, _) in zip(chunks, found)])
+    middles = np.concatenate([m for _, m in found])
+    opening = ~_over_skin(middles, skin_now)
+    if skin is not None:
+        opening[opening] = _over_skin(middles[opening], skin)
+    return float(np.bincount(sample[opening], minlength=len(uv)).astype(bool).mean())
+
+
+def _piece_middles(a: np.ndarray, b: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The segments a -> b (m, 2) cut where they cross the segments ``edges`` (e, 2, 2): the
+    middle of each piece, and of each whole segment, (k, 2), with its segment's index (k,)."""
+    d = b - a
+    cuts = [np.zeros((len(a), 0))]
+    if len(edges):
+        p, q = edges[:, 0], edges[:, 1]
+        e = q - p
+        denom = d[:, None, 0] * e[None, :, 1] - d[:, None, 1] * e[None, :, 0]  # (m, e)
+        ap = p[None] - a[:, None]
+        ok = np.abs(denom) > 1e-300
+        denom = np.where(ok, denom, 1.0)
+        s = (ap[..., 0] * e[None, :, 1] - ap[..., 1] * e[None, :, 0]) / denom
+        t = (ap[..., 0] * d[:, None, 1] - ap[..., 1] * d[:, None, 0]) / denom
+        cuts.append(np.where(ok & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1), s, np.nan))
+    cuts = np.sort(np.concatenate([np.zeros((len(a), 1)), *cuts, np.ones((len(a), 1))], axis=1), axis=1)
+    mid = 0.5 * (cuts[:, :-1] + cuts[:, 1:])  # nan where a bound is (sorted last): dropped
+    mid = np.concatenate([np.full((len(a), 1), 0.5), mid], axis=1)  # the sample itself
+    sample, k = np.nonzero(np.isfinite(mid))
+    return sample, a[sample] + mid[sample, k, None] * d[sample]
 
 
 def curve_coverage(stroke, surface, contact_paths, tol: float) -> float:
