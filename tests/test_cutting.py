@@ -546,6 +546,31 @@ def test_a_start_the_swept_disc_reaches_from_an_earlier_wound_starts_in_it(offse
     assert border_loop_count(model.triangles) == loops + (1 if joins else 2)
 
 
+@pytest.mark.parametrize("heading, joins", [(-1.0, True), (1.0, False)])
+def test_a_start_moved_into_a_wound_ahead_of_the_blade_moves_back(heading, joins):
+    """A second incision started 1.5 mm beside the first's start node with a 2 mm blade: its
+    start moves onto that node (the swept disc reaches the wound). Cutting away from the wound
+    (a T's stem) keeps it there. Cutting towards it, across the wound, the start moves back to
+    where the blade entered once it has travelled: starting in the wound ahead made a path from
+    the wound back to the entry and on again (fuzz case 2579376181, stroke 3, a 4.2 mm blade:
+    nothing cut, coverage 0)."""
+    model, sim = patch_sim()
+    y = between_rows(model)
+    cut_along(sim, [[-0.006, y, 0.0], [0.004, y, 0.0]])
+    node = sim.cutter.incisions[0].start_node
+    begin = model.points[node] + np.array([0.0, -0.0015, 0.0])
+    inc = sim.cutter.start_incision(sim, begin, [0, 0, 1], 0.002)
+    np.testing.assert_allclose(inc.path[0], model.points[node], atol=1e-12)
+    for k in range(1, 21):
+        sim.cutter.extend_incision(sim, begin + np.array([0.0, heading * 0.0003 * k, 0.0]))
+    np.testing.assert_allclose(inc.path[0], model.points[node] if joins else begin, atol=1e-12)
+    assert inc.entry is None
+    travel = np.diff(np.array(inc.path)[:, 1])
+    assert (np.sign(travel) == np.sign(heading)).all()  # no turn in the path: no hairpin
+    sim.cutter.end_incision(sim)
+    assert_valid(sim, "after the second incision")
+
+
 def components(node_count, springs, nodes):
     """Number of connected pieces among ``nodes`` through ``springs`` (union-find)."""
     parent = list(range(node_count))

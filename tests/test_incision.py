@@ -43,6 +43,21 @@ def test_start_at_moves_the_start_and_refits_the_curve():
     assert inc.length == pytest.approx(0.006, rel=1e-6)
 
 
+def test_restart_at_drops_the_points_near_the_new_start():
+    """``restart_at``: a path from 3 mm back to 0 and on to 5 mm (a hairpin at its first point),
+    restarted at 0.1 mm with a 0.5 mm step, keeps the points at least 0.5 mm from the new start
+    (1 ... 5 mm; the start's own normal and contact rows stay with it) and the curve runs from
+    the new start to the path's end, its length the new chord length."""
+    points = [[0.003, 0.0, 0.0], [0.0, 0.0, 0.0]] + [[0.001 * k, 0.0, 0.0] for k in range(1, 6)]
+    inc = straight_incision(points)
+    inc.restart_at([0.0001, 0.0, 0.0], 0.0005)
+    np.testing.assert_allclose(np.array(inc.path)[:, 0], [0.0001, 0.001, 0.002, 0.003, 0.004, 0.005])
+    assert len(inc.normals) == len(inc.contact_path) == len(inc.contact_normals) == len(inc.path)
+    np.testing.assert_allclose(inc.point_at(np.array([0.0, inc.length])), [[0.0001, 0, 0], [0.005, 0, 0]],
+                               atol=1e-12)
+    assert inc.length == pytest.approx(0.0049, rel=1e-6)
+
+
 def test_a_cut_incision_neither_turns_back_nor_moves_its_start():
     """Once some of it is cut (a cut point, a station or a slit node), the path is fixed."""
     inc = straight_incision([[0.001 * k, 0.0, 0.0] for k in range(6)])
@@ -52,6 +67,8 @@ def test_a_cut_incision_neither_turns_back_nor_moves_its_start():
         inc.turn_back()
     with pytest.raises(InputError, match="before any of it is cut"):
         inc.start_at([-0.001, 0.0, 0.0])
+    with pytest.raises(InputError, match="before any of it is cut"):
+        inc.restart_at([-0.001, 0.0, 0.0], 0.0005)
 
 
 def test_the_curve_stays_near_crossings_a_spacing_apart_on_tight_arcs():

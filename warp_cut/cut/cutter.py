@@ -236,6 +236,8 @@ class Cutter:
                        lip_offset=s.lip_offset or 0.25 * sweep_radius, tolerance=s.tolerance or 0.1 * self.spacing,
                        contact_point=crossing.point, contact_normal=crossing.normal)
         inc.sweep_radius = float(sweep_radius)
+        if not np.array_equal(rest, start.rest):
+            inc.entry = np.asarray(start.rest, dtype=np.float64).copy()
         inc.starts_on_tissue = rest_point_on_tissue(self.model, rest, self.spacing)
         self._linked[len(self.incisions)] = set()
         self.incisions.append(inc)
@@ -312,11 +314,30 @@ class Cutter:
             return None  # over an opening, or the blade has not moved on enough: wait
         if inc.turns_back(point.rest):  # a tool lowered with its axis tilted, now travelling
             inc.turn_back()
-            inc.start_at(joined_start(self.model, self.incisions, inc.path[0], inc.sweep_radius))
+            entry = inc.path[0].copy()
+            inc.start_at(joined_start(self.model, self.incisions, entry, inc.sweep_radius))
+            inc.entry = None if np.array_equal(inc.path[0], entry) else entry
             inc.starts_on_tissue = rest_point_on_tissue(self.model, inc.path[0], self.spacing)
         if inc.retraces(point.rest, inc.sweep_radius):
             return None  # back over what is cut (a bouncing skin under a tilted blade)
+        if inc.entry is not None:
+            self._keep_or_undo_join(inc, point.rest)
         return point
+
+    def _keep_or_undo_join(self, inc: Incision, rest: np.ndarray) -> None:
+        """Once the blade has travelled ``MIN_ADVANCE`` spacings from where it entered, keep a
+        start moved into an earlier wound (``joined_start``) only if the blade travels away from
+        that wound (a T's stem). A wound ahead is one the stroke will cross: starting in it ran
+        the path from the wound back to the entry and on again, a hairpin nothing could be cut
+        along, so the incision starts where the blade entered. Nothing is cut until then
+        (``_cut``)."""
+        travel = rest - inc.entry
+        if np.linalg.norm(travel) < MIN_ADVANCE * self.spacing:
+            return
+        if np.dot(inc.path[0] - inc.entry, travel) > 0:
+            inc.restart_at(inc.entry, MIN_ADVANCE * self.spacing)
+            inc.starts_on_tissue = rest_point_on_tissue(self.model, inc.path[0], self.spacing)
+        inc.entry = None
 
     def _extend_path(self, point: MaterialPoint, crossing: Crossing) -> None:
         """Extend the current incision's path (and refit its curve) to the material ``point`` of
@@ -348,7 +369,12 @@ class Cutter:
         and 3), its links and any island, then mirror the edit; ``times`` (perf_counter at the
         event's start, after locating, after the curve) for the latency; ``final``: the
         incision's last cut (nothing waits for a later event). False if nothing was cut (too
-        short a piece, or a slit that does not fit: the next event tries again)."""
+        short a piece, a slit that does not fit, a joined start the blade's travel has not yet
+        kept or undone: the next event tries again)."""
+        if inc.entry is not None:  # the blade's travel has not yet kept or undone a joined start
+            if not final:
+                return False
+            inc.entry = None
         editor = self.editor
         first = not inc.station_u and inc.tip_node < 0
         unopened = inc.last_pair(self.model.active) < 0  # until a lip pair stands, cut from the start again

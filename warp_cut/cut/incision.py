@@ -152,6 +152,10 @@ class Incision:
         self.starts_on_tissue = True
         """False when the blade entered in an opening (an earlier wound): the slit then has no
         start node, it opens into that wound (set by the Cutter)."""
+        self.entry: np.ndarray | None = None
+        """Where the blade entered [m] (rest) when the start was moved into an earlier wound its
+        swept disc reached (``tissue_at_rest.joined_start``), until the blade's travel keeps or
+        undoes that move (``Cutter``); None otherwise."""
         self.reached_border = False
         """True once the slit has run into an opening or the tissue's edge (it ends there open)."""
         self.resume_u = 0.0
@@ -236,6 +240,23 @@ class Incision:
         if not self.uncut:
             raise InputError("an incision's start can only move before any of it is cut")
         self.path[0] = np.asarray(point, dtype=np.float64).copy()
+        self._path_changed()
+
+    def restart_at(self, point, min_step: float) -> None:
+        """Start the path at the rest point ``point`` [m] while nothing is cut (``uncut``),
+        leaving out the path points after the start within ``min_step`` [m] of it.
+
+        Raises:
+            InputError: Some of the incision is cut already.
+        """
+        if not self.uncut:
+            raise InputError("an incision's start can only move before any of it is cut")
+        point = np.asarray(point, dtype=np.float64)
+        keep = [0] + [k for k in range(1, len(self.path)) if np.linalg.norm(self.path[k] - point) >= min_step]
+        for name in ("path", "normals", "contact_path", "contact_normals"):
+            values = getattr(self, name)
+            setattr(self, name, [values[k] for k in keep])
+        self.path[0] = point.copy()
         self._path_changed()
 
     def _path_changed(self) -> None:
