@@ -221,6 +221,23 @@ def test_two_lip_lines_meeting_a_border_by_one_node_do_not_both_take_it():
     assert shapely.Polygon(xy).is_valid and signed_area(xy) < -1e-8
 
 
+@pytest.mark.parametrize("lip_offset, kept", [(1e-4, False), (1e-3, True)])
+def test_a_pairless_wedge_from_the_start_sharper_than_the_smallest_angle_is_left(lip_offset, kept):
+    """A slit from its start into an opening 3 mm on (border x = 3 mm) with no station on the
+    way: a wedge from the start to the border. With a 0.1 mm lip offset its angle at the start
+    is 3.8 deg, under MIN_ANGLE_DEG: no fill has a good triangle there, and the run is left
+    (no band); with 1 mm it is 37 deg and the band is that wedge."""
+    points = np.array([[3.0, 3.0, 0], [3.0, 0.5, 0], [3.0, -3.0, 0]]) * 1e-3
+    inc = Incision([0, 0, 0], [0, 0, 1], spacing=S, lip_offset=lip_offset, tolerance=1e-6)
+    inc.extend([LENGTH, 0, 0], 1e-9)
+    u = samples(51)
+    band = band_of(inc, u, u < 2.9e-3, stations=(), points=points, borders=[(0, 1), (1, 2)])
+    assert len(band.runs) == (1 if kept else 0)
+    if kept:
+        stations = [p.station for p in band.runs[0]]
+        assert stations[0] == START and len(stations) >= 3 and set(stations[1:]) == {JUNCTION}
+
+
 def earlier_slit(tip_y: float):
     """An earlier slit across the incision's path from above, its tip (node 3) at (5, tip_y) mm:
     its borders run down x = 4.8 mm (nodes 0-2) and up x = 5.2 mm (nodes 4-6), the last

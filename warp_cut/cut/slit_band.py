@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .incision import Incision, stations_from
-from .tolerances import FIRST_STATION, SNAP
+from .tolerances import FIRST_STATION, MIN_ANGLE_DEG, SNAP
 
 __all__ = ["BandPoint", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION",
            "CUT_BEFORE"]
@@ -291,5 +291,20 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
             else:
                 meet_left, chain, meet_right = ahead
                 front = [meet_left] + [BandPoint(points[w], 0, JUNCTION, ub, w) for w in chain[::-1]] + [meet_right]
+        if _sliver_wedge(left, right, front):
+            continue
         band.runs.append(left + front + right[::-1])
     return band
+
+
+def _sliver_wedge(left: list, right: list, front: list) -> bool:
+    """True for a run from the incision's start into an opening without a lip pair whose
+    wedge is sharper at the start than ``MIN_ANGLE_DEG``: no fill has a good triangle there
+    (a thin blade's slit a few spacings from its start to an earlier wound). It is left for
+    the next event, which cuts the rest of the incision."""
+    if not left or left[0].station != START or len(left) > 1 or right or front[-1].station != JUNCTION:
+        return False
+    apex = left[0].rest
+    a, b = front[0].rest - apex, front[-1].rest - apex
+    cos = float(np.dot(a, b)) / max(float(np.linalg.norm(a) * np.linalg.norm(b)), 1e-300)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))) < MIN_ANGLE_DEG
