@@ -200,27 +200,6 @@ def test_a_lip_line_meets_the_nearer_of_two_borders_close_together():
     assert meets[1].node == 1
 
 
-def test_two_lip_lines_meeting_a_border_by_one_node_do_not_both_take_it():
-    """A thin slit (lip offset 0.2 mm) runs into the corner of an opening (border nodes
-    (5, 2.5), (4.5, 0), (5, -2.5) mm): both lip lines meet the border 0.2 mm from the corner
-    node, within SNAP spacings of it. Both snapped onto it, the band's end had no width (a
-    sliver the fill could not lay the slit's start into: fuzz case 1063875237, stroke 3, every
-    event refused). One line keeps the node, the other meets the border where it does, and
-    the run is a ring of positive area."""
-    points = np.array([[5.0, 2.5, 0], [4.5, 0, 0], [5.0, -2.5, 0]]) * 1e-3
-    inc = Incision([0, 0, 0], [0, 0, 1], spacing=S, lip_offset=2e-4, tolerance=1e-6)
-    inc.extend([LENGTH, 0, 0], 1e-9)
-    u = samples(51)
-    run = band_of(inc, u, u < 4.4e-3, points=points, borders=[(0, 1), (1, 2)]).runs[0]
-    meets = [p for p in run if p.station == JUNCTION]
-    assert sorted(p.node for p in meets) == [-1, 1]
-    own = next(p for p in meets if p.node < 0)
-    assert own.rest == pytest.approx([4.54e-3, own.side * 2e-4, 0.0], abs=1e-9)
-    assert np.linalg.norm(points[1] - own.rest) <= SNAP * S  # near enough to have snapped
-    xy = ring_xy(run)
-    assert shapely.Polygon(xy).is_valid and signed_area(xy) < -1e-8
-
-
 @pytest.mark.parametrize("lip_offset, kept", [(1e-4, False), (1e-3, True)])
 def test_a_pairless_wedge_from_the_start_sharper_than_the_smallest_angle_is_left(lip_offset, kept):
     """A slit from its start into an opening 3 mm on (border x = 3 mm) with no station on the

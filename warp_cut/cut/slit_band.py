@@ -222,14 +222,6 @@ def _junction(inc: Incision, u0: float, direction: int, reach: float, borders, p
     snap = SNAP * inc.spacing
     left_point = _snapped(left, edges[e_left], points, snap, u0, 1)
     right_point = _snapped(right, edges[e_right], points, snap, u0, -1)
-    if left_point.node >= 0 and left_point.node == right_point.node:
-        # both lip lines meet the border by one node: the nearer keeps it, the other meets the
-        # border where it does (a band of no width there leaves the slit's start out of the fill)
-        at = points[left_point.node]
-        if np.linalg.norm(left - at) <= np.linalg.norm(right - at):
-            right_point = BandPoint(right, -1, JUNCTION, u0)
-        else:
-            left_point = BandPoint(left, 1, JUNCTION, u0)
     chain = [w for w in chain if w not in (left_point.node, right_point.node)]
     return left_point, chain, right_point
 
