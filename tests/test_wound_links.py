@@ -256,6 +256,29 @@ def test_a_severed_link_is_carried_to_a_lip_on_each_side():
     assert pairs_of(model) == [tuple(sorted((node_at(model, 3, ROWS[1]), node_at(model, 2, -ROWS[1]))))]
 
 
+def test_a_link_orphaned_and_then_severed_in_one_edit_is_carried_as_severed():
+    """The link across the incision of the test above, its lower node deleted first and its
+    upper one later in the same edit (a scrap or an island removed after the event's own
+    deletions): the report holds it orphaned, with the upper node as the one kept, which is
+    gone by the end of the edit. It goes, as a severed link, to the lips nearest its two nodes
+    on their sides, never to a deleted node (fuzz case 1896506760, stroke 4: link_dead_node)."""
+    model, editor = patch()
+    inc = straight_incision(model)
+    keep, gone = node_at(model, 4, ROWS[0]), node_at(model, 3, -ROWS[0])
+    editor.begin()
+    editor.make_links([(keep, gone)], [SPACING])
+    editor.finish()
+    editor.begin()
+    editor.delete_nodes([gone])
+    editor.delete_nodes([keep])
+    report = editor.finish()
+    assert [e[:2] for e in report.orphaned_links] == [(keep, gone)] and not report.severed_links
+    assert carry_links(editor, inc, report, inc.left + inc.right, reach=0.004) == 0
+    assert pairs_of(model) == [tuple(sorted((node_at(model, 3, ROWS[1]), node_at(model, 2, -ROWS[1]))))]
+    ends = model.link_table.live("pairs").ravel()
+    assert model.active[ends].all()
+
+
 def test_a_link_is_lost_when_nothing_is_left_within_reach():
     model, editor = patch()
     inc = straight_incision(model)
