@@ -259,9 +259,10 @@ def test_a_severed_link_is_carried_to_a_lip_on_each_side():
 def test_a_link_orphaned_and_then_severed_in_one_edit_is_carried_as_severed():
     """The link across the incision of the test above, its lower node deleted first and its
     upper one later in the same edit (a scrap or an island removed after the event's own
-    deletions): the report holds it orphaned, with the upper node as the one kept, which is
-    gone by the end of the edit. It goes, as a severed link, to the lips nearest its two nodes
-    on their sides, never to a deleted node (fuzz case 1896506760, stroke 4: link_dead_node)."""
+    deletions): orphaned at the first deletion, with the upper node as the one kept, it has
+    lost both nodes by the end of the edit and the report holds it severed. It goes to the lips
+    nearest its two nodes on their sides, never to a deleted node (fuzz case 1896506760,
+    stroke 4: link_dead_node, when it was carried as orphaned to its dead kept node)."""
     model, editor = patch()
     inc = straight_incision(model)
     keep, gone = node_at(model, 4, ROWS[0]), node_at(model, 3, -ROWS[0])
@@ -272,7 +273,7 @@ def test_a_link_orphaned_and_then_severed_in_one_edit_is_carried_as_severed():
     editor.delete_nodes([gone])
     editor.delete_nodes([keep])
     report = editor.finish()
-    assert [e[:2] for e in report.orphaned_links] == [(keep, gone)] and not report.severed_links
+    assert [e[:2] for e in report.severed_links] == [(keep, gone)] and not report.orphaned_links
     assert carry_links(editor, inc, report, inc.left + inc.right, reach=0.004) == 0
     assert pairs_of(model) == [tuple(sorted((node_at(model, 3, ROWS[1]), node_at(model, 2, -ROWS[1]))))]
     ends = model.link_table.live("pairs").ravel()

@@ -231,6 +231,15 @@ class TopologyEditor:
             self.model.node_table.kill(nodes)
             self.report.deleted_nodes.extend(nodes)
             self._touched.difference_update(nodes)
+            self._sever_orphans_of(doomed)
+
+    def _sever_orphans_of(self, doomed: set) -> None:
+        """Links reported orphaned earlier in this edit whose surviving node is now deleted too
+        (a scrap or an island removed after the event's own deletions) have lost both nodes:
+        they move to ``report.severed_links``."""
+        report = self.report
+        report.severed_links += [link for link in report.orphaned_links if link[0] in doomed]
+        report.orphaned_links = [link for link in report.orphaned_links if link[0] not in doomed]
 
     def add_nodes(self, points, node_class: int = NodeClass.LIP) -> np.ndarray:
         """New nodes with rest positions ``points`` (k, 3) [m]; masses set at finish. Their

@@ -162,17 +162,13 @@ def carry_links(editor: TopologyEditor, inc: Incision | None, report: EditReport
             ok &= sides == inc.project(x[None])[1][0]
         return int(nodes[np.flatnonzero(ok)[np.argmin(dist[ok])]]) if ok.any() else -1
 
-    severed = list(report.severed_links)
     for keep, gone, force, smoothing in report.orphaned_links:
-        if not model.active[keep]:  # its other end went later in the same edit (a scrap, an island)
-            severed.append((keep, gone, force, smoothing))
-            continue
         new = taking(gone, keep)
         if new < 0 or new == keep:
             lost += 1
             continue
         editor.add_link(keep, new, force, smoothing)
-    for i, j, force, smoothing in severed:
+    for i, j, force, smoothing in report.severed_links:
         a, b = taking(i, -1), taking(j, -1)
         if a < 0 or b < 0 or a == b:
             lost += 1
