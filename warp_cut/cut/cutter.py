@@ -45,7 +45,7 @@ from .events import EventClock
 from .flips import flip_to_delaunay
 from .host import CutHost
 from .incision import Incision
-from .islands import islands_from, scraps_from
+from .islands import islands_from, piece_nodes, scraps_from
 from .material_point import MaterialPoint
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
 from .remesh import PieceCut, SlitDoesNotFit, cut_piece
@@ -231,13 +231,12 @@ class Cutter:
     def _begin(self, start: MaterialPoint, crossing: Crossing, sweep_radius: float) -> Incision:
         """A new incision from the material point ``start`` (the blade's ``crossing`` there)."""
         s = self.settings
-        rest = joined_start(self.model, self.incisions, start.rest, sweep_radius)
+        rest, entry = self._joined_start(start.rest, sweep_radius)
         inc = Incision(rest, start.normal, spacing=self.spacing,
                        lip_offset=s.lip_offset or 0.25 * sweep_radius, tolerance=s.tolerance or 0.1 * self.spacing,
                        contact_point=crossing.point, contact_normal=crossing.normal)
         inc.sweep_radius = float(sweep_radius)
-        if not np.array_equal(rest, start.rest):
-            inc.entry = np.asarray(start.rest, dtype=np.float64).copy()
+        inc.entry = entry
         inc.starts_on_tissue = rest_point_on_tissue(self.model, rest, self.spacing)
         self._linked[len(self.incisions)] = set()
         self.incisions.append(inc)
@@ -314,15 +313,21 @@ class Cutter:
             return None  # over an opening, or the blade has not moved on enough: wait
         if inc.turns_back(point.rest):  # a tool lowered with its axis tilted, now travelling
             inc.turn_back()
-            entry = inc.path[0].copy()
-            inc.start_at(joined_start(self.model, self.incisions, entry, inc.sweep_radius))
-            inc.entry = None if np.array_equal(inc.path[0], entry) else entry
+            rest, inc.entry = self._joined_start(inc.path[0], inc.sweep_radius)
+            inc.start_at(rest)
             inc.starts_on_tissue = rest_point_on_tissue(self.model, inc.path[0], self.spacing)
         if inc.retraces(point.rest, inc.sweep_radius):
             return None  # back over what is cut (a bouncing skin under a tilted blade)
         if inc.entry is not None:
             self._keep_or_undo_join(inc, point.rest)
         return point
+
+    def _joined_start(self, entry: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray | None]:
+        """Where an incision the blade entered at the rest point ``entry`` [m] starts
+        (``joined_start``: in an earlier wound its swept disc of ``radius`` [m] reaches), and the
+        entry to remember while the blade's travel may still undo that move (None: not moved)."""
+        rest = joined_start(self.model, self.incisions, entry, radius)
+        return rest, None if np.array_equal(rest, entry) else np.asarray(entry, dtype=np.float64).copy()
 
     def _keep_or_undo_join(self, inc: Incision, rest: np.ndarray) -> None:
         """Once the blade has travelled ``MIN_ADVANCE`` spacings from where it entered, keep a
@@ -451,7 +456,7 @@ class Cutter:
         seeds, self._waiting_scraps = seeds | self._waiting_scraps, set()
         removed = 0
         for scrap in scraps_from(self.model, seeds, SCRAP_AREA * self.spacing**2, SCRAP_TRIANGLES):
-            if keep & set(self.model.triangle_table.column("corners")[list(scrap)].ravel().tolist()):
+            if keep & set(piece_nodes(self.model, scrap).tolist()):
                 self._waiting_scraps |= scrap
                 continue
             self._remove_piece(scrap)
@@ -466,8 +471,7 @@ class Cutter:
 
     def _remove_piece(self, triangles: set[int]) -> None:
         """Delete the nodes (and so the springs and triangles) of the triangle slots ``triangles``."""
-        corners = self.model.triangle_table.column("corners")[np.fromiter(triangles, dtype=np.int64)]
-        self.editor.delete_nodes(np.unique(corners).tolist())
+        self.editor.delete_nodes(piece_nodes(self.model, triangles).tolist())
 
     def _count(self, report, cut: PieceCut) -> None:
         tot = self.totals

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["islands_from", "scraps_from"]
+__all__ = ["islands_from", "scraps_from", "piece_nodes"]
 
 
 def _neighbours(model, t: int) -> set[int]:
@@ -79,8 +79,17 @@ def _merge(owner: dict, pieces: list, fronts: list, src: int, dst: int) -> None:
 
 def _free(model, triangles: set[int]) -> bool:
     """True if a piece holds no pinned node (a pinned one holds it in place: not freed)."""
-    corners = model.triangle_table.column("corners")[np.fromiter(triangles, dtype=np.int64)]
-    return not model.pinned[np.unique(corners)].any()
+    return not model.pinned[piece_nodes(model, triangles)].any()
+
+
+def piece_nodes(model, triangles) -> np.ndarray:
+    """The nodes (sorted, unique) of the triangle slots ``triangles``."""
+    return np.unique(_corners(model, triangles))
+
+
+def _corners(model, triangles) -> np.ndarray:
+    """Corner nodes (t, 3) of the triangle slots ``triangles``."""
+    return model.triangle_table.column("corners")[np.fromiter(triangles, dtype=np.int64)]
 
 
 def scraps_from(model, seeds, max_area: float, max_triangles: int) -> list[set[int]]:
@@ -106,6 +115,6 @@ def scraps_from(model, seeds, max_area: float, max_triangles: int) -> list[set[i
 
 def _rest_area(model, triangles: set[int]) -> float:
     """Rest area [m^2] of the triangle slots ``triangles``."""
-    corners = model.triangle_table.column("corners")[np.fromiter(triangles, dtype=np.int64)]
+    corners = _corners(model, triangles)
     a, b, c = (model.points[corners[:, k]] for k in range(3))
     return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
