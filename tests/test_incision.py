@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from warp_cut.cut.incision import Incision, polyline_distance
+from warp_cut.cut.tolerances import STATION_GAP, STATION_TURN_DEG
 from warp_cut.errors import InputError
 
 SPACING = 2e-3
@@ -90,3 +91,31 @@ def test_the_curve_stays_near_crossings_a_spacing_apart_on_tight_arcs():
             dense = inc.point_at(np.linspace(0.0, inc.length, 400))
             off = polyline_distance(dense, points[:k]).max()
             assert off <= 1.1 * tol, f"seed {seed}, {k} crossings: the curve {off / tol:.2f} tolerances off"
+
+
+def test_stations_are_a_spacing_apart_on_a_straight_cut():
+    """Along a straight path each station follows the one before by exactly a spacing."""
+    inc = straight_incision([[0.001 * k, 0.0, 0.0] for k in range(13)])
+    stations = inc.stations_from(0.0013, 0.011)
+    np.testing.assert_allclose(np.diff(stations), SPACING, rtol=1e-9)
+    assert stations[0] == pytest.approx(0.0013) and stations[-1] <= 0.011
+
+
+@pytest.mark.parametrize("turn_deg", [90.0, 135.0])
+def test_a_station_comes_sooner_round_a_sharp_corner(turn_deg):
+    """A path 6 mm along x, then 6 mm on turned by ``turn_deg``: from a station 0.8 spacings
+    before the corner the next one lies where the curve's tangent has turned
+    ``STATION_TURN_DEG`` (checked on the fitted curve itself), no nearer than ``STATION_GAP``
+    spacings and sooner than a spacing; along the straight legs stations stay a spacing apart."""
+    a = np.radians(turn_deg)
+    leg = [[0.0005 * k, 0.0, 0.0] for k in range(13)]
+    corner = np.array(leg[-1])
+    leg2 = [corner + 0.0005 * k * np.array([np.cos(a), np.sin(a), 0.0]) for k in range(1, 13)]
+    inc = straight_incision(leg + leg2)
+    u_corner = float(inc.project(corner[None])[0][0])
+    u0 = u_corner - 0.8 * SPACING
+    u1 = inc.next_station_after(u0)
+    assert u0 + STATION_GAP * SPACING - 1e-12 <= u1 < u0 + SPACING
+    turned = np.degrees(np.arccos(np.clip(inc.tangent_at([u1])[0] @ inc.tangent_at([u0])[0], -1.0, 1.0)))
+    assert turned >= STATION_TURN_DEG
+    assert inc.next_station_after(0.0005) == pytest.approx(0.0005 + SPACING)  # the straight first leg

@@ -24,9 +24,9 @@ import numpy as np
 from ..errors import InputError
 from ..mesh.geometry import cross3
 from .bezier import BezierChain, fit_chain
-from .tolerances import FIRST_STATION
+from .tolerances import FIRST_STATION, STATION_GAP, STATION_TURN_DEG
 
-__all__ = ["Incision", "polyline_distance", "stations_from"]
+__all__ = ["Incision", "polyline_distance"]
 
 _SAMPLES_PER_SEGMENT = 48
 
@@ -67,13 +67,6 @@ def closest_on_dense_polyline(points: np.ndarray, poly: np.ndarray):
     best = np.argmin(dist, axis=1)
     rows = np.arange(len(points))
     return segments[rows, best], t[rows, best], closest[rows, best], dist[rows, best]
-
-
-def stations_from(first: float, upto: float, spacing: float) -> list[float]:
-    """Arc lengths [m] every ``spacing`` [m] from ``first`` up to ``upto`` (a rounding margin
-    of 1e-9 spacings keeps a station that falls on ``upto``)."""
-    count = int(np.floor((upto - first) / spacing + 1e-9)) + 1
-    return [first + spacing * k for k in range(max(0, count))]
 
 
 def _unit(v) -> np.ndarray:
@@ -353,13 +346,33 @@ class Incision:
 
     # ----------------------------------------------------------------- stations
     def next_stations(self, upto: float) -> list[float]:
-        """Arc lengths [m] of the stations after the last one, every ``spacing``, up to ``upto``
-        (the first ``FIRST_STATION`` spacings after the start, or after ``resume_u``)."""
+        """Arc lengths [m] of the stations after the last one up to ``upto`` (the first
+        ``FIRST_STATION`` spacings after the start, or after ``resume_u``), a spacing apart, or
+        nearer where the curve turns (``stations_from``)."""
         if self.station_u and self.station_u[-1] >= self.resume_u:
-            first = self.station_u[-1] + self.spacing
+            first = self.next_station_after(self.station_u[-1])
         else:
             first = self.resume_u + FIRST_STATION * self.spacing
-        return stations_from(first, upto, self.spacing)
+        return self.stations_from(first, upto)
+
+    def next_station_after(self, u: float) -> float:
+        """Arc length [m] of the station after the one at ``u`` [m]: a spacing on, or where the
+        curve's tangent has turned ``STATION_TURN_DEG`` from its direction at ``u`` if that comes
+        first (but no nearer than ``STATION_GAP`` spacings). The band runs straight from station
+        to station: round a sharp corner a spacing's chord would cut across the tissue inside it."""
+        s = self.spacing
+        ahead = u + s * np.linspace(STATION_GAP, 1.0, 9)
+        turned = self.tangent_at(ahead) @ self.tangent_at([u])[0] < np.cos(np.radians(STATION_TURN_DEG))
+        return float(ahead[np.argmax(turned)]) if turned.any() else u + s
+
+    def stations_from(self, first: float, upto: float) -> list[float]:
+        """Arc lengths [m] of stations from ``first`` up to ``upto`` (``next_station_after`` each
+        from the one before; a rounding margin of 1e-9 spacings keeps one on ``upto``)."""
+        out, u = [], first
+        while u <= upto + 1e-9 * self.spacing:
+            out.append(float(u))
+            u = self.next_station_after(u)
+        return out
 
     def add_station(self, u: float, left: int, right: int) -> None:
         """A new station at arc length ``u`` [m] with its lip nodes (-1 for a missing one)."""

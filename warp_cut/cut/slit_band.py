@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .incision import Incision, stations_from
+from .incision import Incision
 from .tolerances import FIRST_STATION, MIN_ANGLE_DEG, SNAP
 
 __all__ = ["BandPoint", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION",
@@ -266,7 +266,7 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
                 right.append(meet_right)
                 left[:0] = [BandPoint(points[w], 0, JUNCTION, ua, w) for w in chain]
             lo = ua + margin
-            wanted = stations_from(ua + FIRST_STATION * inc.spacing, ub - margin, inc.spacing)
+            wanted = inc.stations_from(ua + FIRST_STATION * inc.spacing, ub - margin)
         hi = ub if last == len(u) - 1 else ub - margin
         for s in wanted:
             if lo < s <= hi + 1e-12:

@@ -32,9 +32,20 @@ edge a side, which shortens the crack as the sheet sees it: a short first wedge 
 prestressed sheet's opening within 7 % of Griffith's (``tests/test_fracture.py``), a whole
 spacing left 11 %."""
 
+STATION_TURN_DEG = 45.0
+"""Most the curve may turn [deg] from one lip station to the next: round a sharper bend a
+station comes sooner than a spacing on (``Incision.next_station_after``). The band runs
+straight between stations, and a spacing's chord round a sharp corner would cut off the tissue
+inside it (at a zigzag's corner: the hole it left was the fuzz's commonest). An arc
+turns 45 deg a spacing at a radius of 1.3 s: arcs of 5 spacings and more keep a station a
+spacing (30 deg drew lips together round bends the fill then refused more often)."""
+
+STATION_GAP = 0.6
+"""Least distance [x s] between two lip stations along the curve."""
+
 LINK_REACH = 0.5
 """A separated spring's link goes to a lip pair within this [x s] along the curve of where the
-spring crossed, else it waits for the next station: stations are a spacing apart, so no later
+spring crossed, else it waits for the next station: stations are at most a spacing apart, so no later
 one can lie nearer, and the links depend on the curve alone, not on when the events fell."""
 
 LAST_STATION = 0.5
