@@ -107,6 +107,11 @@ class _Layout:
     """Arc lengths [m] of the band's new stations (``BandPoint.station`` indexes them)."""
     resumed_at: float | None = None
     """Where the band's last run begins at an opening's border [m] (``SlitBand.resumed_at``)."""
+    band_lips: dict = field(default_factory=dict)
+    """(station, side) -> the node a lip of the band was matched to (``_match_lips``)."""
+    matched: dict = field(default_factory=dict)
+    """New point id (< 0) -> the node on the outline next to it that it was matched to
+    (``MERGE``): that node stands in for it."""
 
 
 @dataclass(frozen=True)
@@ -143,6 +148,25 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
     chart = RegionChart.of_triangles(model.points[corners])
     if old_tip is not None:
         clear_of_old_tip(band, old_tip, inc, chart, OLD_END_CLEARANCE * s)
+    try:
+        layout, growth = _fill(model, inc, region, band, chart, protected)
+    except SlitDoesNotFit:  # node matching, then once more: a lip beside a node of the slit is that node
+        if not _match_lips(band, model, (protected | provisional) & set(near.tolist()), MERGE * s):
+            raise
+        layout, growth = _fill(model, inc, region, band, chart, protected)
+    return _apply(editor, inc, region, layout, positions, tool, growth)
+
+
+def _fill(model, inc: Incision, region: Region, band: SlitBand, chart: RegionChart,
+          protected: set[int]) -> tuple[_Layout, int]:
+    """The region less the band, filled (``_lay_out``), the region grown where the refinement
+    would split its fixed outline or leaves a corner it cannot mend (up to ``MAX_GROWTH``
+    times), and checked; with the times it grew.
+
+    Raises:
+        SlitDoesNotFit: The fill splits the region's outline, leaves a triangle under
+            ``MIN_ANGLE_DEG`` or does not lay the whole slit, however far the region grows.
+    """
     wedges: list = []
     for growth in range(MAX_GROWTH + 1):
         layout = _lay_out(model, inc, region, band, chart, wedges)
@@ -161,7 +185,7 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
     if layout.fill.unrefined and _smallest_angle(layout.fill) < MIN_ANGLE_DEG:
         raise SlitDoesNotFit("the fill leaves a triangle under the smallest angle however far it grows")
     _check_slit(layout, band)
-    return _apply(editor, inc, region, layout, positions, tool, growth)
+    return layout, growth
 
 
 def _smallest_angle(fill: Fill) -> float:
@@ -172,7 +196,8 @@ def _smallest_angle(fill: Fill) -> float:
 
 def _check_slit(layout: _Layout, band: SlitBand) -> None:
     """The fill lays the whole slit: every lip and the tip the band asks for is a vertex of the
-    tissue's new outline, one each.
+    tissue's new outline, one each, or a lip matched to a node of the outline next to it
+    (``_matched_lips``: a node of the slit round a sharp bend, an earlier wound's).
 
     Raises:
         SlitDoesNotFit: One is missing or doubled (the band and the region's outline met in a
@@ -185,9 +210,46 @@ def _check_slit(layout: _Layout, band: SlitBand) -> None:
         if v < 0 and layout.points[-1 - v].band is not None:
             key = (layout.points[-1 - v].band.station, layout.points[-1 - v].band.side)
             laid[key] = laid.get(key, 0) + 1
+    for key in _matched_lips(layout):
+        laid[key] = laid.get(key, 0) + 1
     missing = sorted(k for k in wanted if laid.get(k, 0) != 1)
     if missing:
         raise SlitDoesNotFit(f"the fill does not lay the slit's points {missing} once each")
+
+
+def _match_lips(band: SlitBand, model, nodes: set[int], reach: float) -> int:
+    """Node matching (the paper's Alg. 2): a new lip of ``band`` within ``reach`` [m] of one of
+    ``nodes`` (the slit's nodes near, e.g. round a sharp bend, where the lip lines of the legs
+    before and after it meet) is that node, each node one lip at most. Returns the lips matched.
+    Tried when a fill does not fit: a node a little off the lip line makes a less even fill."""
+    live = np.array(sorted(v for v in nodes if model.active[v]), dtype=np.int64)
+    if not len(live):
+        return 0
+    matched = 0
+    used = {p.node for run in band.runs for p in run if p.node >= 0}
+    for run in band.runs:
+        for k, p in enumerate(run):
+            if p.node >= 0 or p.station < 0:
+                continue
+            d = np.linalg.norm(model.points[live] - p.rest, axis=1)
+            j = int(np.argmin(d))
+            if d[j] <= reach and int(live[j]) not in used:
+                used.add(int(live[j]))
+                run[k] = BandPoint(model.points[live[j]].copy(), p.side, p.station, p.u, int(live[j]))
+                matched += 1
+    return matched
+
+
+def _matched_lips(layout: _Layout) -> dict:
+    """(station, side) -> node of the lips matched to a node: by the band (``_match_lips``) or by
+    the outline, next to them (``MERGE``), each node standing in for one lip only (two lips on
+    one node would be no slit)."""
+    lips: dict = dict(layout.band_lips)
+    for v, node in layout.matched.items():
+        band = layout.points[-1 - v].band
+        if band is not None and band.station >= 0 and node not in lips.values():
+            lips[(band.station, band.side)] = node
+    return lips
 
 
 def _edge_of(ids: list, edge: tuple[int, int]) -> tuple[int, int]:
@@ -215,7 +277,7 @@ def _lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: Region
     if not pieces:
         raise SlitDoesNotFit("the band leaves no tissue in its region")
     table = _VertexTable(model, chart, region, band, MATCH * inc.spacing)
-    loops, points = _loops(pieces, table, MERGE * inc.spacing)
+    loops, points, matched = _loops(pieces, table, MERGE * inc.spacing)
     outline = {v for loop in loops for v in loop}
     rim = shapely.union_all([p.boundary for p in pieces])
     inside = [v for v in sorted(region.nodes() - region.deleted - outline)
@@ -234,7 +296,9 @@ def _lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: Region
     cut_across = {e for e in fixed if e not in kept and not {*e} & region.deleted}
     turns = {b: (where[b], where[a], where[c]) for loop in loops
              for a, b, c in zip(loop[-1:] + loop[:-1], loop, loop[1:] + loop[:1])}
-    return _Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations, band.resumed_at)
+    band_lips = {(p.station, p.side): p.node for run in band.runs for p in run if p.node >= 0 and p.station >= 0}
+    return _Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations, band.resumed_at,
+                   band_lips, matched)
 
 
 def _distinct(ring: np.ndarray) -> np.ndarray:
@@ -276,13 +340,15 @@ class _VertexTable:
         return self.xy[mask]
 
 
-def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[int]], list[_NewPoint]]:
-    """The outline loops of the tissue left (the tissue on their left) as vertex ids, and the new
-    points: band points on the new outline, and points where a lip line meets a border. A new
-    point nearer than ``merge`` [m] to its neighbour on the loop that is a node is left out (the
-    loop goes straight on to the node: no tiny edge)."""
+def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[int]], list[_NewPoint], dict]:
+    """The outline loops of the tissue left (the tissue on their left) as vertex ids, the new
+    points (band points on the new outline, and points where a lip line meets a border), and
+    the new points matched to a node: one nearer than ``merge`` [m] to its neighbour on the loop
+    that is a node is left out, the loop going straight on to that node (node matching: no
+    tiny edge)."""
     points: list[_NewPoint] = []
     made: dict = {}
+    matched: dict = {}
     loops = []
     for poly in pieces:
         for ring in [poly.exterior, *poly.interiors]:
@@ -299,13 +365,13 @@ def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[i
                     made[key] = -len(points)
                 ids.append(made[key])
             keep = [k for k in range(len(ids)) if ids[k] != ids[k - 1]]  # two points matched one vertex
-            loops.append(_merge_near([ids[k] for k in keep], coords[keep], merge))
-    return [loop for loop in loops if len(loop) >= 3], points
+            loops.append(_merge_near([ids[k] for k in keep], coords[keep], merge, matched))
+    return [loop for loop in loops if len(loop) >= 3], points, matched
 
 
-def _merge_near(ids: list[int], coords: np.ndarray, merge: float) -> list[int]:
+def _merge_near(ids: list[int], coords: np.ndarray, merge: float, matched: dict) -> list[int]:
     """``ids`` without the new points (< 0) that lie within ``merge`` [m] of a neighbouring node
-    (>= 0) on the loop."""
+    (>= 0) on the loop; ``matched`` takes each such point's node."""
     n = len(ids)
     keep = []
     for k in range(n):
@@ -314,6 +380,7 @@ def _merge_near(ids: list[int], coords: np.ndarray, merge: float) -> list[int]:
             near = [j for j in ((k - 1) % n, (k + 1) % n) if ids[j] >= 0
                     and np.linalg.norm(coords[j] - coords[k]) < merge]
             if near:
+                matched[v] = ids[min(near, key=lambda j: np.linalg.norm(coords[j] - coords[k]))]
                 continue
         keep.append(v)
     return keep
@@ -401,6 +468,8 @@ def _record(inc: Incision, layout: _Layout, node_of: list, gone: list) -> PieceC
             cut.met_border = True
         else:
             lips[(band.station, band.side)] = node
+    matched = _matched_lips(layout)
+    lips.update({key: node for key, node in matched.items() if key not in lips})
     for k, u in enumerate(layout.stations):
         left, right = lips.get((k, 1), -1), lips.get((k, -1), -1)
         if left >= 0 or right >= 0:
@@ -413,7 +482,7 @@ def _record(inc: Incision, layout: _Layout, node_of: list, gone: list) -> PieceC
     inc.tip_node = cut.tip
     if cut.start >= 0:
         inc.start_node = cut.start
-    cut.lips = sorted(set(made.values()))
+    cut.lips = sorted(set(made.values()) | set(matched.values()))
     inc.slit_nodes.update(cut.lips)
     cut.inserted = [int(node_of[k]) for k in range(len(layout.ids), len(layout.fill.points))]
     cut.met_border |= cut.tip < 0
