@@ -1331,3 +1331,19 @@ def test_a_fleck_a_zigzag_corner_trims_off_is_removed_not_left_as_a_hole():
             0.035453971742899194)
     assert_no_hole_after(sim, surface, path, tool, min_coverage=0.85)
     assert sim.cutter.totals["removed_scraps"] >= 1
+
+
+def test_a_zigzag_corner_keeps_its_lip_pair_and_leaves_no_hole():
+    """A zigzag (r 0.8 mm, 42 degrees, 3.1 cm/s) on a turned 2.8 mm grid, gravity, the
+    foundation and links on (fuzz seed 1, case 2649647853): with a station a spacing on, the
+    band's straight lip lines cut across the sharp corner, the corner's lip pair went with the
+    island cut off inside it, and the next band closed onto the pair before the corner: one more
+    border loop was left in the tissue. Round a bend of more than ``STATION_TURN_DEG`` a station
+    comes sooner, and the whole path opens."""
+    surface = flat_grid(0.040259136085277085, 0.0027947805060384873, angle=0.07602181993168088)
+    sim = supported_sim(surface, 0.01777705400405221)
+    path = strokes.zigzag([0.0038513695572780986, 0.006230964062944231], 4.740756483088703, 0.01584235787827188,
+                          0.00763991771855002, 0.028395039066569434)
+    tool = (42.26546659686966, 0.0007928880311687104, 0.003722601364148634, 0.030756039857979655,
+            0.048445360119734895)
+    assert_no_hole_after(sim, surface, path, tool)
