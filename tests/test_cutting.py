@@ -1322,15 +1322,16 @@ def test_a_fleck_a_zigzag_corner_trims_off_is_removed_not_left_as_a_hole():
     foundation on (fuzz seed 1, case 3553598660): at a corner one event left a lone triangle of
     three lip nodes, 0.17 x 0.11 mm, apart from the tissue, and it stayed as one more border
     loop (a hole) after the stroke. It held the newest lip pair, which the next event closes
-    onto: a scrap (``SCRAP_AREA``) waits while it does, and goes after."""
+    onto: a scrap (``SCRAP_AREA``) waits while it does, and goes after. Since a station comes
+    sooner round a sharp bend (``STATION_TURN_DEG``) the corner trims off no fleck and the whole
+    path opens; scraps themselves are tested on hand-built pieces (``tests/test_islands.py``)."""
     surface = flat_grid(0.04180556395866199, 0.002155298933406245, angle=0.9054308440633906)
     sim = supported_sim(surface, 0.0174190527701845)
     path = strokes.zigzag([0.0010852060343109259, 0.007539082805061414], 5.610058160419436, 0.016947978218351617,
                           0.004421071785975865, 0.013283373429235103)
     tool = (71.71438862510428, 0.0008979414892694119, 0.0017136699107866305, 0.006580731192383419,
             0.035453971742899194)
-    assert_no_hole_after(sim, surface, path, tool, min_coverage=0.85)
-    assert sim.cutter.totals["removed_scraps"] >= 1
+    assert_no_hole_after(sim, surface, path, tool)
 
 
 def test_a_zigzag_corner_keeps_its_lip_pair_and_leaves_no_hole():

@@ -40,7 +40,7 @@ inside it (at a zigzag's corner: the hole it left was the fuzz's commonest). An 
 turns 45 deg a spacing at a radius of 1.3 s: arcs of 5 spacings and more keep a station a
 spacing (30 deg drew lips together round bends the fill then refused more often)."""
 
-STATION_GAP = 0.6
+STATION_GAP = 0.75
 """Least distance [x s] between two lip stations along the curve."""
 
 LINK_REACH = 0.5
