@@ -25,9 +25,10 @@ def lip(x, y, side, station) -> BandPoint:
 
 def band() -> SlitBand:
     """A run from a pair (nodes 0, 1) with lips at x = 2 mm (station 0) to the tip at 3 mm."""
-    return SlitBand(runs=[[BandPoint(np.array([0.0, 2.5e-4, 0.0]), 1, CUT_BEFORE, 0.0, 0), lip(0.002, 2.5e-4, 1, 0),
-                           BandPoint(np.array([0.003, 0.0, 0.0]), 0, TIP, 0.003),
-                           lip(0.002, -2.5e-4, -1, 0), BandPoint(np.array([0.0, -2.5e-4, 0.0]), -1, CUT_BEFORE, 0.0, 1)]],
+    pair_left = BandPoint(np.array([0.0, 2.5e-4, 0.0]), 1, CUT_BEFORE, 0.0, 0)
+    pair_right = BandPoint(np.array([0.0, -2.5e-4, 0.0]), -1, CUT_BEFORE, 0.0, 1)
+    tip = BandPoint(np.array([0.003, 0.0, 0.0]), 0, TIP, 0.003)
+    return SlitBand(runs=[[pair_left, lip(0.002, 2.5e-4, 1, 0), tip, lip(0.002, -2.5e-4, -1, 0), pair_right]],
                     stations=[0.002])
 
 
