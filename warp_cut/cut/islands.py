@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mesh.geometry import corner_areas
+
 __all__ = ["islands_from", "scraps_from", "piece_nodes"]
 
 
@@ -115,6 +117,4 @@ def scraps_from(model, seeds, max_area: float, max_triangles: int) -> list[set[i
 
 def _rest_area(model, triangles: set[int]) -> float:
     """Rest area [m^2] of the triangle slots ``triangles``."""
-    corners = _corners(model, triangles)
-    a, b, c = (model.points[corners[:, k]] for k in range(3))
-    return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+    return float(corner_areas(model.points[_corners(model, triangles)]).sum())
