@@ -1317,34 +1317,35 @@ def test_a_thick_zigzag_across_an_earlier_cut_joins_it():
     assert_cut_guarantees(sim, surface, cut_stroke(sim, surface, second, tool), joins=True)
 
 
-def test_a_fleck_a_zigzag_corner_trims_off_is_removed_not_left_as_a_hole():
-    """A zigzag (r 0.9 mm, 72 degrees, 6.6 mm/s) on a turned 2.2 mm grid, gravity and the
-    foundation on (fuzz seed 1, case 3553598660): at a corner one event left a lone triangle of
-    three lip nodes, 0.17 x 0.11 mm, apart from the tissue, and it stayed as one more border
-    loop (a hole) after the stroke. It held the newest lip pair, which the next event closes
-    onto: a scrap (``SCRAP_AREA``) waits while it does, and goes after. Since a station comes
-    sooner round a sharp bend (``STATION_TURN_DEG``) the corner trims off no fleck and the whole
-    path opens; scraps themselves are tested on hand-built pieces (``tests/test_islands.py``)."""
-    surface = flat_grid(0.04180556395866199, 0.002155298933406245, angle=0.9054308440633906)
-    sim = supported_sim(surface, 0.0174190527701845)
-    path = strokes.zigzag([0.0010852060343109259, 0.007539082805061414], 5.610058160419436, 0.016947978218351617,
-                          0.004421071785975865, 0.013283373429235103)
-    tool = (71.71438862510428, 0.0008979414892694119, 0.0017136699107866305, 0.006580731192383419,
-            0.035453971742899194)
-    assert_no_hole_after(sim, surface, path, tool)
+ZIGZAG_CORNERS = {
+    # case 3553598660: r 0.9 mm, 72 degrees, 6.6 mm/s on a turned 2.2 mm grid. At a corner one
+    # event left a lone triangle of three lip nodes, 0.17 x 0.11 mm, apart from the tissue: one
+    # more border loop after the stroke. It held the newest lip pair the next event closes onto:
+    # a scrap (SCRAP_AREA) waits while it does, and goes after. Since a station comes sooner
+    # round a sharp bend the corner trims off no fleck (scraps: tests/test_islands.py).
+    "fleck_3553598660": ((0.04180556395866199, 0.002155298933406245, 0.9054308440633906), 0.0174190527701845,
+                         ([0.0010852060343109259, 0.007539082805061414], 5.610058160419436, 0.016947978218351617,
+                          0.004421071785975865, 0.013283373429235103),
+                         (71.71438862510428, 0.0008979414892694119, 0.0017136699107866305, 0.006580731192383419,
+                          0.035453971742899194)),
+    # case 2649647853: r 0.8 mm, 42 degrees, 3.1 cm/s on a turned 2.8 mm grid, with links. With a
+    # station a spacing on, the band's straight lip lines cut across the corner, the corner's lip
+    # pair went with the island cut off inside it, and the next band closed onto the pair before
+    # the corner: one more border loop was left in the tissue.
+    "lip_pair_2649647853": ((0.040259136085277085, 0.0027947805060384873, 0.07602181993168088), 0.01777705400405221,
+                            ([0.0038513695572780986, 0.006230964062944231], 4.740756483088703, 0.01584235787827188,
+                             0.00763991771855002, 0.028395039066569434),
+                            (42.26546659686966, 0.0007928880311687104, 0.003722601364148634, 0.030756039857979655,
+                             0.048445360119734895)),
+}
 
 
-def test_a_zigzag_corner_keeps_its_lip_pair_and_leaves_no_hole():
-    """A zigzag (r 0.8 mm, 42 degrees, 3.1 cm/s) on a turned 2.8 mm grid, gravity, the
-    foundation and links on (fuzz seed 1, case 2649647853): with a station a spacing on, the
-    band's straight lip lines cut across the sharp corner, the corner's lip pair went with the
-    island cut off inside it, and the next band closed onto the pair before the corner: one more
-    border loop was left in the tissue. Round a bend of more than ``STATION_TURN_DEG`` a station
-    comes sooner, and the whole path opens."""
-    surface = flat_grid(0.040259136085277085, 0.0027947805060384873, angle=0.07602181993168088)
-    sim = supported_sim(surface, 0.01777705400405221)
-    path = strokes.zigzag([0.0038513695572780986, 0.006230964062944231], 4.740756483088703, 0.01584235787827188,
-                          0.00763991771855002, 0.028395039066569434)
-    tool = (42.26546659686966, 0.0007928880311687104, 0.003722601364148634, 0.030756039857979655,
-            0.048445360119734895)
-    assert_no_hole_after(sim, surface, path, tool)
+@pytest.mark.parametrize("case", sorted(ZIGZAG_CORNERS))
+def test_a_zigzag_corner_leaves_no_hole_and_opens_the_whole_path(case):
+    """Zigzags of the fuzz (seed 1) on turned grids, gravity and the foundation on
+    (``ZIGZAG_CORNERS`` says what each corner once left): round a bend of more than
+    ``STATION_TURN_DEG`` a station comes sooner, no hole is left and the whole path opens."""
+    (size, spacing, angle), interval, zigzag, tool = ZIGZAG_CORNERS[case]
+    surface = flat_grid(size, spacing, angle=angle)
+    sim = supported_sim(surface, interval)
+    assert_no_hole_after(sim, surface, strokes.zigzag(*zigzag), tool)
