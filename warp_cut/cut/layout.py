@@ -1,0 +1,230 @@
+"""Stage 3's layout in the rest shape: the region's tissue less the slit's band, as outline
+loops in a flat chart of the rest surface, filled.
+
+``lay_out`` takes the band out of the region's triangles as polygons (GEOS through Shapely),
+names the vertices of the tissue's new outline (region nodes, band nodes, the band's new points,
+points where a lip line meets a border: ``NewPoint``), leaves out a new point within ``MERGE``
+spacings of a node next to it (node matching), and fills the outline with the nodes inside at
+``REFINE_ANGLE_DEG`` (``fill.fill_region``). The ``Layout`` it returns is what
+``remesh.cut_piece`` checks and writes; ``matched_lips`` and ``sharp_corners`` read it. Lengths
+in metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+
+from ..errors import InputError
+from .chart import RegionChart
+from .fill import Fill, fill_region
+from .incision import Incision
+from .region import Region
+from .slit_band import BandPoint, SlitBand
+from .tolerances import MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
+
+__all__ = ["Layout", "NewPoint", "SlitDoesNotFit", "lay_out", "matched_lips", "sharp_corners", "edge_of"]
+
+
+class SlitDoesNotFit(Exception):
+    """The slit of an event could not be laid out in its region (nothing was edited)."""
+
+
+@dataclass
+class Layout:
+    """A region's fill: ``ids`` of its vertices (node ids >= 0, new points < 0: ``points[-1-k]``),
+    the fill, the chart, which outline edges it may not split, and the outline's turns."""
+
+    ids: list
+    points: list
+    fill: Fill
+    chart: RegionChart
+    fixed: set
+    turns: dict
+    """Outline vertex id -> (its row, the row before it, the row after it) along the tissue's
+    new outline, the tissue on the left (rows of ``fill.points``)."""
+    cut_across: set
+    """Fixed outline edges the band cuts across (the region must grow across them)."""
+    stations: list
+    """Arc lengths [m] of the band's new stations (``BandPoint.station`` indexes them)."""
+    resumed_at: float | None = None
+    """Where the band's last run begins at an opening's border [m] (``SlitBand.resumed_at``)."""
+    band_lips: dict = field(default_factory=dict)
+    """(station, side) -> the node a lip of the band was matched to (``remesh._match_lips``)."""
+    matched: dict = field(default_factory=dict)
+    """New point id (< 0) -> the node on the outline next to it that it was matched to
+    (``MERGE``): that node stands in for it."""
+
+
+@dataclass(frozen=True)
+class NewPoint:
+    """A node the layout makes: a band point, or where a lip line meets a border (``band`` None)."""
+
+    band: BandPoint | None
+    chart: np.ndarray
+
+
+def matched_lips(layout: Layout) -> dict:
+    """(station, side) -> node of the lips matched to a node: by the band (``remesh._match_lips``) or by
+    the outline, next to them (``MERGE``), each node standing in for one lip only (two lips on
+    one node would be no slit)."""
+    lips: dict = dict(layout.band_lips)
+    for v, node in layout.matched.items():
+        band = layout.points[-1 - v].band
+        if band is not None and band.station >= 0 and node not in lips.values():
+            lips[(band.station, band.side)] = node
+    return lips
+
+
+def edge_of(ids: list, edge: tuple[int, int]) -> tuple[int, int]:
+    """The sorted node pair of a fill edge (indices into ``ids``)."""
+    a, b = ids[edge[0]], ids[edge[1]]
+    return (min(a, b), max(a, b))
+
+
+def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionChart, wedges: list) -> Layout:
+    """The region's tissue less the band (and the sharp ``wedges`` (3, 2) chart triangles cut off
+    before), in ``chart``, filled.
+
+    Raises:
+        SlitDoesNotFit: No tissue is left, or the fill found no area.
+    """
+    corners = model.triangle_table.column("corners")[sorted(region.triangles)]
+    tissue = shapely.union_all(shapely.polygons(chart.to2d(model.points[corners])))
+    rings = [_distinct(chart.to2d(np.array([p.rest for p in run]))) for run in band.runs]
+    cut = shapely.union_all([shapely.make_valid(shapely.Polygon(r)) for r in rings if len(r) >= 3]
+                            + [shapely.Polygon(w) for w in wedges])
+    grid = 1e-6 * inc.spacing  # slivers of rounding where the band runs along a border collapse on it
+    left = shapely.orient_polygons(shapely.set_precision(tissue.difference(cut), grid), exterior_cw=False)
+    pieces = [g for g in getattr(left, "geoms", [left]) if isinstance(g, shapely.Polygon)
+              and g.area > (0.01 * inc.spacing) ** 2]
+    if not pieces:
+        raise SlitDoesNotFit("the band leaves no tissue in its region")
+    table = _VertexTable(model, chart, region, band, MATCH * inc.spacing)
+    loops, points, matched = _loops(pieces, table, MERGE * inc.spacing)
+    outline = {v for loop in loops for v in loop}
+    rim = shapely.union_all([p.boundary for p in pieces])
+    inside = [v for v in sorted(region.nodes() - region.deleted - outline)
+              if any(p.contains(shapely.Point(chart.to2d(model.points[v]))) for p in pieces)
+              and rim.distance(shapely.Point(chart.to2d(model.points[v]))) > MERGE * inc.spacing]
+    ids = sorted(v for v in outline if v >= 0) + inside + sorted((v for v in outline if v < 0), reverse=True)
+    where = {v: k for k, v in enumerate(ids)}
+    chart_points = np.array([chart.to2d(model.points[v]) if v >= 0 else points[-1 - v].chart for v in ids])
+    edges = [(where[a], where[b]) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1]) if a != b]
+    try:
+        fill = fill_region(chart_points, edges, min_angle_deg=REFINE_ANGLE_DEG, min_edge=MIN_EDGE * inc.spacing)
+    except InputError as err:
+        raise SlitDoesNotFit(str(err)) from err
+    fixed = {(min(a, b), max(a, b)) for a, b in region.outline() if not region.on_mesh_border(a, b)}
+    kept = {(min(a, b), max(a, b)) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1])}
+    cut_across = {e for e in fixed if e not in kept and not {*e} & region.deleted}
+    turns = {b: (where[b], where[a], where[c]) for loop in loops
+             for a, b, c in zip(loop[-1:] + loop[:-1], loop, loop[1:] + loop[:1])}
+    band_lips = {(p.station, p.side): p.node for run in band.runs for p in run if p.node >= 0 and p.station >= 0}
+    return Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations, band.resumed_at,
+                   band_lips, matched)
+
+
+def _distinct(ring: np.ndarray) -> np.ndarray:
+    """The ring (k, 2) without a point equal to the one before it (cyclically): a band whose two
+    ends close on one node."""
+    if len(ring) < 2:
+        return ring
+    keep = np.any(ring != np.roll(ring, 1, axis=0), axis=1)
+    return ring[keep]
+
+
+class _VertexTable:
+    """What lies at a chart point: a node id (the region's nodes, the band's existing nodes) or a
+    BandPoint (a new point of the band), found within ``tolerance`` [m] (GEOS returns the input
+    vertices it keeps, but only to rounding)."""
+
+    def __init__(self, model, chart: RegionChart, region: Region, band: SlitBand, tolerance: float):
+        nodes = sorted(region.nodes())
+        self.items: list = list(nodes)
+        xy = [chart.to2d(model.points[nodes])] if nodes else []
+        for run in band.runs:
+            for p in run:
+                self.items.append(p.node if p.node >= 0 else p)
+                xy.append(chart.to2d(p.rest)[None])
+        self.xy = np.concatenate(xy) if xy else np.zeros((0, 2))
+        self.tolerance = tolerance
+
+    def get(self, point):
+        """The item at ``point`` (2,), or None."""
+        if not len(self.xy):
+            return None
+        d = np.linalg.norm(self.xy - point, axis=1)
+        k = int(np.argmin(d))
+        return self.items[k] if d[k] <= self.tolerance else None
+
+    def nodes_xy(self) -> np.ndarray:
+        """Chart points (k, 2) of the node items."""
+        mask = np.array([isinstance(v, (int, np.integer)) for v in self.items], dtype=bool)
+        return self.xy[mask]
+
+
+def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[int]], list[NewPoint], dict]:
+    """The outline loops of the tissue left (the tissue on their left) as vertex ids, the new
+    points (band points on the new outline, and points where a lip line meets a border), and
+    the new points matched to a node: one nearer than ``merge`` [m] to its neighbour on the loop
+    that is a node is left out, the loop going straight on to that node (node matching: no
+    tiny edge)."""
+    points: list[NewPoint] = []
+    made: dict = {}
+    matched: dict = {}
+    loops = []
+    for poly in pieces:
+        for ring in [poly.exterior, *poly.interiors]:
+            coords = np.asarray(ring.coords)[:-1]
+            ids = []
+            for xy in coords:
+                hit = table.get(xy)
+                if isinstance(hit, (int, np.integer)):
+                    ids.append(int(hit))
+                    continue
+                key = tuple(xy)
+                if key not in made:
+                    points.append(NewPoint(hit if isinstance(hit, BandPoint) else None, xy))
+                    made[key] = -len(points)
+                ids.append(made[key])
+            keep = [k for k in range(len(ids)) if ids[k] != ids[k - 1]]  # two points matched one vertex
+            loops.append(_merge_near([ids[k] for k in keep], coords[keep], merge, matched))
+    return [loop for loop in loops if len(loop) >= 3], points, matched
+
+
+def _merge_near(ids: list[int], coords: np.ndarray, merge: float, matched: dict) -> list[int]:
+    """``ids`` without the new points (< 0) that lie within ``merge`` [m] of a neighbouring node
+    (>= 0) on the loop; ``matched`` takes each such point's node."""
+    n = len(ids)
+    keep = []
+    for k in range(n):
+        v = ids[k]
+        if v < 0:
+            near = [j for j in ((k - 1) % n, (k + 1) % n) if ids[j] >= 0
+                    and np.linalg.norm(coords[j] - coords[k]) < merge]
+            if near:
+                matched[v] = ids[min(near, key=lambda j: np.linalg.norm(coords[j] - coords[k]))]
+                continue
+        keep.append(v)
+    return keep
+
+
+def sharp_corners(layout: Layout, protected: set[int]) -> list[tuple[int, np.ndarray | None]]:
+    """Corners of the tissue's new outline under ``REFINE_ANGLE_DEG`` (the fill cannot mend them):
+    (vertex id, None) at a node of the region's own outline (the region takes its fan in), else
+    (vertex id, the corner's triangle (3, 2) in the chart: it goes with the band)."""
+    chart = layout.fill.points
+    out = []
+    for v, (row, before, after) in layout.turns.items():
+        if v in protected:
+            continue
+        a, b = chart[after] - chart[row], chart[before] - chart[row]
+        angle = np.degrees(np.arctan2(a[0] * b[1] - a[1] * b[0], a @ b)) % 360.0  # after -> before, CCW
+        if angle >= REFINE_ANGLE_DEG:
+            continue
+        wedge = np.array([chart[before], chart[row], chart[after]])
+        out.append((v, None if v >= 0 and layout.ids[before] >= 0 and layout.ids[after] >= 0 else wedge))
+    return out
