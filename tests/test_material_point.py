@@ -13,7 +13,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.material_point import affine_material_point, closest_on_triangles, material_point
+from warp_cut.cut.material_point import affine_material_point, closest_on_triangles, material_point, nearest_triangle
 
 coordinates = st.floats(-1.0, 1.0, allow_nan=False)
 points_3d = st.tuples(coordinates, coordinates, coordinates).map(np.array)
@@ -61,6 +61,25 @@ def test_the_closest_point_is_no_farther_than_any_point_of_the_triangle(triangle
     diameter = max(np.linalg.norm(corners[0, a] - corners[0, b]) for a, b in ((0, 1), (1, 2), (2, 0)))
     assert d[0] <= brute + 1e-12
     assert d[0] >= brute - diameter / steps
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40), st.integers(0, 2**32 - 1), points_3d, st.booleans())
+def test_the_nearest_triangle_is_the_brute_force_nearest(count, seed, point, touching):
+    """Random soups of triangles (a strip of a mesh when ``touching``: triangles sharing
+    corners, so ties of equal distance occur): the triangle, distance and coordinates the
+    pruned search returns are those of the first minimum over all triangles."""
+    rng = np.random.default_rng(seed)
+    if touching:
+        strip = rng.uniform(-1.0, 1.0, (count + 2, 3))
+        corners = np.stack([strip[:-2], strip[1:-1], strip[2:]], axis=1)
+    else:
+        corners = rng.uniform(-1.0, 1.0, (count, 3, 3)) * rng.uniform(0.01, 1.0, (count, 1, 1)) \
+            + rng.uniform(-2.0, 2.0, (count, 1, 3))
+    d, lam = closest_on_triangles(point, corners)
+    k, dist, got = nearest_triangle(point, corners)
+    assert (k, dist) == (int(np.argmin(d)), float(d.min()))
+    assert np.array_equal(got, lam[k])
 
 
 def test_a_degenerate_triangle_is_as_far_as_its_segment():

@@ -105,13 +105,10 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
     table = _VertexTable(model, chart, region, band, MATCH * inc.spacing)
     loops, points, matched = _loops(pieces, table, MERGE * inc.spacing)
     outline = {v for loop in loops for v in loop}
-    rim = shapely.union_all([p.boundary for p in pieces])
-    inside = [v for v in sorted(region.nodes() - region.deleted - outline)
-              if any(p.contains(shapely.Point(chart.to2d(model.points[v]))) for p in pieces)
-              and rim.distance(shapely.Point(chart.to2d(model.points[v]))) > MERGE * inc.spacing]
+    inside = _inside(pieces, sorted(region.nodes() - region.deleted - outline), model, chart, MERGE * inc.spacing)
     ids = sorted(v for v in outline if v >= 0) + inside + sorted((v for v in outline if v < 0), reverse=True)
     where = {v: k for k, v in enumerate(ids)}
-    chart_points = np.array([chart.to2d(model.points[v]) if v >= 0 else points[-1 - v].chart for v in ids])
+    chart_points = _chart_points(ids, points, model, chart)
     edges = [(where[a], where[b]) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1]) if a != b]
     try:
         fill = fill_region(chart_points, edges, min_angle_deg=REFINE_ANGLE_DEG, min_edge=MIN_EDGE * inc.spacing)
@@ -125,6 +122,33 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
     band_lips = {(p.station, p.side): p.node for run in band.runs for p in run if p.node >= 0 and p.station >= 0}
     return Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations, band.resumed_at,
                    band_lips, matched)
+
+
+def _inside(pieces: list, nodes: list[int], model, chart: RegionChart, clear: float) -> list[int]:
+    """The nodes of ``nodes`` inside a piece of tissue and farther than ``clear`` [m] from
+    every piece's outline, in the chart: those the fill keeps as inner points."""
+    if not nodes:
+        return []
+    xy = chart.to2d(model.points[nodes])
+    within = np.zeros(len(nodes), dtype=bool)
+    for piece in pieces:
+        within |= shapely.contains_xy(piece, xy[:, 0], xy[:, 1])
+    rim = shapely.union_all([p.boundary for p in pieces])
+    away = shapely.distance(rim, shapely.points(xy)) > clear
+    return [v for v, keep in zip(nodes, within & away) if keep]
+
+
+def _chart_points(ids: list[int], points: list[NewPoint], model, chart: RegionChart) -> np.ndarray:
+    """Chart coordinates (len(ids), 2) [m] of the vertex ids: a node's rest position, a new
+    point's own."""
+    out = np.empty((len(ids), 2))
+    nodes = [k for k, v in enumerate(ids) if v >= 0]
+    if nodes:
+        out[nodes] = chart.to2d(model.points[[ids[k] for k in nodes]])
+    for k, v in enumerate(ids):
+        if v < 0:
+            out[k] = points[-1 - v].chart
+    return out
 
 
 def _distinct(ring: np.ndarray) -> np.ndarray:
@@ -152,13 +176,13 @@ class _VertexTable:
         self.xy = np.concatenate(xy) if xy else np.zeros((0, 2))
         self.tolerance = tolerance
 
-    def get(self, point):
-        """The item at ``point`` (2,), or None."""
+    def get(self, points: np.ndarray) -> list:
+        """The item at each of ``points`` (m, 2), or None."""
         if not len(self.xy):
-            return None
-        d = np.linalg.norm(self.xy - point, axis=1)
-        k = int(np.argmin(d))
-        return self.items[k] if d[k] <= self.tolerance else None
+            return [None] * len(points)
+        d = np.linalg.norm(self.xy[None] - np.asarray(points)[:, None], axis=2)
+        nearest = np.argmin(d, axis=1)
+        return [self.items[k] if d[row, k] <= self.tolerance else None for row, k in enumerate(nearest.tolist())]
 
     def nodes_xy(self) -> np.ndarray:
         """Chart points (k, 2) of the node items."""
@@ -180,8 +204,7 @@ def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[i
         for ring in [poly.exterior, *poly.interiors]:
             coords = np.asarray(ring.coords)[:-1]
             ids = []
-            for xy in coords:
-                hit = table.get(xy)
+            for xy, hit in zip(coords, table.get(coords)):
                 if isinstance(hit, (int, np.integer)):
                     ids.append(int(hit))
                     continue

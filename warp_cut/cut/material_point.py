@@ -24,7 +24,7 @@ import numpy as np
 
 from ..mesh.geometry import cross3
 
-__all__ = ["MaterialPoint", "closest_on_triangles", "material_point", "affine_material_point"]
+__all__ = ["MaterialPoint", "closest_on_triangles", "nearest_triangle", "material_point", "affine_material_point"]
 
 
 @dataclass(frozen=True)
@@ -74,19 +74,39 @@ def closest_on_triangles(point: np.ndarray, corners: np.ndarray) -> tuple[np.nda
     return best_d, best
 
 
+def _candidates(point: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Indices (sorted) of the triangles (m, 3, 3) that may be nearest to ``point`` (3,): those
+    whose distance bound from below (to the centroid, less the farthest corner from it) is
+    within the nearest corner of any triangle (a bound from above on the nearest distance)."""
+    centroid = corners.mean(axis=1)
+    spread = np.sqrt(((corners - centroid[:, None]) ** 2).sum(axis=2).max(axis=1))
+    nearest_corner = np.sqrt(((corners - point) ** 2).sum(axis=2).min())
+    below = np.sqrt(((centroid - point) ** 2).sum(axis=1)) - spread
+    return np.flatnonzero(below <= nearest_corner * (1.0 + 1e-9) + 1e-15)
+
+
+def nearest_triangle(point: np.ndarray, corners: np.ndarray) -> tuple[int, float, np.ndarray]:
+    """(index, distance [m], barycentric coordinates (3,)) of the triangle of ``corners``
+    (m >= 1, 3, 3) nearest to ``point`` (3,), the first of equals; ``closest_on_triangles`` on
+    the few triangles a distance bound cannot rule out."""
+    keep = _candidates(point, corners)
+    dist, lam = closest_on_triangles(point, corners[keep])
+    k = int(np.argmin(dist))
+    return int(keep[k]), float(dist[k]), lam[k]
+
+
 def material_point(point, current: np.ndarray, rest: np.ndarray, reach: float) -> MaterialPoint | None:
     """The material point of the crossing ``point`` [m] (3,): through the live triangle (current
     corners ``current`` (m, 3, 3) [m], rest corners ``rest`` (m, 3, 3) [m]) nearest to it, if
     within ``reach`` [m]; else None (the crossing is over an opening)."""
     if not len(current):
         return None
-    dist, lam = closest_on_triangles(np.asarray(point, dtype=np.float64), np.asarray(current, np.float64))
-    k = int(np.argmin(dist))
-    if dist[k] > reach:
+    k, dist, lam = nearest_triangle(np.asarray(point, dtype=np.float64), np.asarray(current, np.float64))
+    if dist > reach:
         return None
     corners = np.asarray(rest[k], dtype=np.float64)
     normal = cross3(corners[1] - corners[0], corners[2] - corners[0])
-    return MaterialPoint(lam[k] @ corners, normal / np.linalg.norm(normal), k, float(dist[k]))
+    return MaterialPoint(lam @ corners, normal / np.linalg.norm(normal), k, dist)
 
 
 def affine_material_point(point, normal, current: np.ndarray, rest: np.ndarray, weights: np.ndarray,
@@ -99,7 +119,7 @@ def affine_material_point(point, normal, current: np.ndarray, rest: np.ndarray, 
     (``current_corners`` (m, 3, 3)) lies within ``reach`` [m] of the crossing (over an opening),
     or the nodes do not span the plane (then the triangle map is used)."""
     point = np.asarray(point, dtype=np.float64)
-    if not len(current_corners) or closest_on_triangles(point, current_corners)[0].min() > reach:
+    if not len(current_corners) or nearest_triangle(point, np.asarray(current_corners, np.float64))[1] > reach:
         return None
     n = np.asarray(normal, dtype=np.float64)
     e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
@@ -111,10 +131,9 @@ def affine_material_point(point, normal, current: np.ndarray, rest: np.ndarray, 
     solution, _, rank, _ = np.linalg.lstsq(basis * sw[:, None], rest * sw[:, None], rcond=1e-10)
     if rank < 3:
         return material_point(point, current_corners, rest_corners, reach)
-    dist, _ = closest_on_triangles(solution[0], rest_corners)
-    k = int(np.argmin(dist))
+    k, dist, _ = nearest_triangle(solution[0], np.asarray(rest_corners, np.float64))
     corners = rest_corners[k]
     rest_normal = cross3(corners[1] - corners[0], corners[2] - corners[0])
     rest_normal /= np.linalg.norm(rest_normal)
     on_plane = solution[0] - float((solution[0] - corners[0]) @ rest_normal) * rest_normal
-    return MaterialPoint(on_plane, rest_normal, k, float(dist[k]))
+    return MaterialPoint(on_plane, rest_normal, k, dist)

@@ -220,8 +220,8 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: Layout
     for row, node, x in zip(new_rows, made, current_new):
         node_of[row] = int(node)
         positions[int(node)] = x
-    for tri in fill.triangles:
-        editor.add_triangle([node_of[k] for k in tri], model.points)
+    editor.add_triangles(np.asarray(node_of, dtype=np.int64)[np.asarray(fill.triangles, dtype=np.int64).reshape(-1, 3)],
+                         model.points)
     cut = _record(inc, layout, node_of, gone)
     cut.growth, cut.unrefined = growth, fill.unrefined
     on_slit = [node_of[k] for k in _inserted_on_slit(layout, inc.slit_nodes)]

@@ -118,8 +118,7 @@ def open_slit(model, start, end, *, normal=(0.0, 0.0, 1.0), tolerance: float | N
     copy_of = {int(v): int(c) for v, c in zip(interior, copies)}
     original = {c: v for v, c in copy_of.items()}
     editor.delete_triangles(upper_tris)
-    for tri in upper_corners:
-        editor.add_triangle([copy_of.get(v, v) for v in tri], model.points)
+    editor.add_triangles([[copy_of.get(v, v) for v in tri] for tri in upper_corners], model.points)
     report = editor.finish()
     _restore_springs(model, editor, report.new_springs, original, old, line)
     return Slit(np.asarray(interior, np.int64), np.asarray(copies, np.int64), arc[1:-1],

@@ -285,28 +285,55 @@ class TopologyEditor:
         existing = self.spring_between(i, j)
         if existing is not None:
             return existing
-        a, b = sorted((int(i), int(j)))
-        length = float(np.linalg.norm(positions[b] - positions[a]))
-        slot = int(self.model.spring_table.append(
-            pairs=np.array([[a, b]]), rest_length=[length],
-            stiffness=[self.model.material.stiffness], spring_class=[spring_class])[0])
-        self.index.add_spring(slot, a, b)
-        self._touched.update((a, b))
-        self.report.new_springs.append(slot)
-        return slot
+        return int(self._append_springs([(min(int(i), int(j)), max(int(i), int(j)))], positions, spring_class)[0])
+
+    def _append_springs(self, pairs: list, positions: np.ndarray, spring_class: int) -> np.ndarray:
+        """New springs on the node pairs ``pairs`` (k pairs (a, b), a < b, none there yet), rest
+        lengths from ``positions`` [m]; their slots (k,)."""
+        if not pairs:
+            return np.zeros(0, dtype=np.int64)
+        ends = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+        lengths = [np.linalg.norm(d) for d in positions[ends[:, 1]] - positions[ends[:, 0]]]  # as one spring's
+        k = len(ends)
+        slots = self.model.spring_table.append(
+            pairs=ends, rest_length=lengths, stiffness=np.full(k, self.model.material.stiffness),
+            spring_class=np.full(k, spring_class))
+        for slot, (a, b) in zip(slots.tolist(), pairs):
+            self.index.add_spring(slot, a, b)
+        self._touched.update(ends.ravel().tolist())
+        self.report.new_springs.extend(slots.tolist())
+        return slots
 
     def add_triangle(self, corners, positions: np.ndarray,
                      edge_class: int = SpringClass.NORMAL) -> int:
         """A triangle (3 node indices, wound CCW seen from outside) with its missing edge springs."""
-        a, b, c = (int(v) for v in corners)
-        for i, j in ((a, b), (b, c), (c, a)):
-            self.add_spring(i, j, positions, edge_class)
-        area = float(corner_areas(positions[[a, b, c]][None])[0])
-        slot = int(self.model.triangle_table.append(corners=np.array([[a, b, c]]), area=[area])[0])
-        self.index.add_triangle(slot, (a, b, c))
-        self._touched.update((a, b, c))
-        self.report.new_triangles.append(slot)
-        return slot
+        return int(self.add_triangles([corners], positions, edge_class)[0])
+
+    def add_triangles(self, corners, positions: np.ndarray,
+                      edge_class: int = SpringClass.NORMAL) -> np.ndarray:
+        """Triangles ``corners`` (k, 3) (node indices, each wound CCW seen from outside) with
+        their missing edge springs (rest lengths from ``positions`` (node_count, 3) [m]), in one
+        append per table; their slots (k,). The same slots and springs as ``add_triangle`` one
+        triangle at a time."""
+        tris = np.asarray(corners, dtype=np.int64).reshape(-1, 3)
+        missing, seen = [], set()
+        for tri in tris.tolist():
+            for i, j in zip(tri, tri[1:] + tri[:1]):
+                if i == j:
+                    raise InputError(f"a spring cannot join node {i} to itself")
+                pair = (i, j) if i < j else (j, i)
+                if pair not in seen:
+                    seen.add(pair)
+                    if self.spring_between(i, j) is None:
+                        missing.append(pair)
+        self._append_springs(missing, positions, edge_class)
+        areas = corner_areas(positions[tris.reshape(-1)].reshape(-1, 3, 3)) if len(tris) else np.zeros(0)
+        slots = self.model.triangle_table.append(corners=tris, area=areas)
+        for slot, tri in zip(slots.tolist(), tris.tolist()):
+            self.index.add_triangle(slot, tri)
+        self._touched.update(tris.reshape(-1).tolist())
+        self.report.new_triangles.extend(slots.tolist())
+        return slots
 
     def split_pinched_nodes(self, nodes, positions) -> list[int]:
         """Give each node of ``nodes`` whose triangles make several fans (pieces that share no
@@ -327,8 +354,7 @@ class TopologyEditor:
                 model.node_table.set("pinned", [copy], [bool(model.pinned[v])])
                 positions[copy] = positions[v]
                 self.delete_triangles(sorted(fan))
-                for tri in tris:
-                    self.add_triangle([copy if x == v else x for x in tri], model.points)
+                self.add_triangles([[copy if x == v else x for x in tri] for tri in tris], model.points)
                 copies.append(copy)
         return copies
 
