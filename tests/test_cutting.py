@@ -1349,3 +1349,25 @@ def test_a_zigzag_corner_leaves_no_hole_and_opens_the_whole_path(case):
     surface = flat_grid(size, spacing, angle=angle)
     sim = supported_sim(surface, interval)
     assert_no_hole_after(sim, surface, strokes.zigzag(*zigzag), tool)
+
+
+@pytest.mark.parametrize("offset_mm, turn_deg", [(0.4, 0.0), (0.8, 4.0)])
+def test_a_stroke_beside_an_earlier_wound_cuts_off_the_strip_between_them(offset_mm, turn_deg):
+    """A second 16 mm stroke (r 1 mm, 60 degrees) drawn beside a first one, 0.4 mm off its line,
+    or 0.8 mm off and turned 4 degrees: its curve runs nearer the first wound's border than the
+    edge clearance (lip offset + CLEARANCE spacings, 0.85 mm), where no slit fits between them,
+    and the blade passes through the strip of tissue in between. That strip goes (``beside``):
+    the second stroke opens at least 0.95 of its path (``StrokeResult.coverage``: a new opening
+    across the trace; before, nothing: coverage 0), joins the first wound (no border loop
+    added), and keeps the cut's guarantees in the rest shape with no sliver as the skin lies."""
+    surface = flat_grid(0.05, 0.002)
+    sim = supported_sim(surface, 1.0 / 60.0)
+    tool = (60.0, 0.001, 0.002, 0.02, 0.04)
+    one_valid_incision(sim, surface, strokes.line([-0.012, 0.0], 0.0, 0.024), *tool)
+    loops = border_loop_count(sim.model.triangles)
+    second = strokes.line([-0.008, offset_mm * 1e-3], math.radians(turn_deg), 0.016)
+    result = one_valid_incision(sim, surface, second, *tool)
+    assert result.coverage >= 0.95
+    assert border_loop_count(sim.model.triangles) == loops
+    assert result.slivers == 0 and result.unfilled_holes == 0
+    assert_sound_rest_shape(sim.model, sim.cutter.live_new_triangles())

@@ -39,6 +39,7 @@ from ..mesh.triangulate import border_loop_count
 from ..sim.control import Tool
 from ..sim.model import TissueModel
 from ..sim.strokes import inside_cylinder
+from .beside import beside_opening
 from .contact import BladeContact, HitLists
 from .event_band import clearance, edge_clearance
 from .events import EventClock
@@ -401,17 +402,20 @@ class Cutter:
             if keep == 0:
                 return False
             u, piece, on_tissue = u[:keep], piece[:keep], on_tissue[:keep]
-        if not on_tissue.any():
+        beside = beside_opening(self.model, inc, u, on_tissue, near, edge_clearance(inc))
+        if not (on_tissue | beside.mask).any():
             inc.cut_point = piece[-1].copy()  # all of it over an opening: nothing to cut
             return False
         positions = NodePositions(self._positions_view(sim))
         editor.begin()
         t3 = time.perf_counter()
         try:
-            cut = cut_piece(editor, inc, u, on_tissue, near, positions, tool=tool, first=first)
+            cut = cut_piece(editor, inc, u, on_tissue, near, positions, tool=tool, first=first, beside=beside)
         except SlitDoesNotFit as why:
             self.totals["skipped_events"] += 1
             self.skipped[str(why)] = self.skipped.get(str(why), 0) + 1
+            if not on_tissue.any():
+                inc.cut_point = piece[-1].copy()  # only a strip beside an opening, which does not fit
             return False
         t4 = time.perf_counter()
         inc.cut_point = piece[-1].copy()

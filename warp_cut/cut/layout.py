@@ -94,7 +94,8 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
     tissue = shapely.union_all(shapely.polygons(chart.to2d(model.points[corners])))
     rings = [_distinct(chart.to2d(np.array([p.rest for p in run]))) for run in band.runs]
-    cut = shapely.union_all([shapely.make_valid(shapely.Polygon(r)) for r in rings if len(r) >= 3]
+    strips = [chart.to2d(strip) for strip in band.strips]
+    cut = shapely.union_all([shapely.make_valid(shapely.Polygon(r)) for r in rings + strips if len(r) >= 3]
                             + [shapely.Polygon(w) for w in wedges])
     grid = 1e-6 * inc.spacing  # slivers of rounding where the band runs along a border collapse on it
     left = shapely.orient_polygons(shapely.set_precision(tissue.difference(cut), grid), exterior_cw=False)

@@ -33,9 +33,10 @@ import numpy as np
 from ..mesh.geometry import triangle_min_angles
 from ..sim.collision import pushed_out
 from ..sim.control import Tool
+from .beside import Beside, strip_polygons
 from .chart import PiecewiseLinearMap, RegionChart
 from .classes import NodeClass, SpringClass
-from .event_band import add_old_tip, clear_of_old_tip, clearance, event_band
+from .event_band import add_old_tip, clear_of_old_tip, clearance, edge_clearance, event_band
 from .fill import Fill
 from .incision import Incision
 from .layout import Layout, SlitDoesNotFit, edge_of, lay_out, matched_lips, sharp_corners
@@ -81,24 +82,49 @@ class PieceCut:
 
 
 def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, near: np.ndarray,
-              positions: NodePositions, *, tool: Tool | None, first: bool) -> PieceCut:
+              positions: NodePositions, *, tool: Tool | None, first: bool, beside: Beside | None = None) -> PieceCut:
     """Cut the piece of ``inc``'s rest curve sampled at arc lengths ``u`` (k,) [m] (from the last
     cut to the slit's new tip, the last sample), ``on_tissue`` (k,) bool: which samples lie in
     the tissue (the others over an opening, where the blade sweeps nothing). ``near``: live nodes
     within clearance + 2 spacings of the piece, at least; ``positions``: the current node
     positions; ``tool``: the tool now, whose cylinder new nodes are kept out of; ``first``: the
-    incision's first event. Part of an edit begun on ``editor`` (see the module docstring).
+    incision's first event; ``beside``: the samples beside an opening, whose strip of tissue the
+    blade cuts off (``beside.Beside``; None: none). Part of an edit begun on ``editor`` (see the
+    module docstring).
 
     Raises:
         SlitDoesNotFit: The band leaves no tissue to fill, or its region cannot be filled.
     """
     model = editor.model
-    s = inc.spacing
     provisional = inc.provisional_nodes(model.active, model.points)  # the old tip goes: the slit runs on
     protected = (inc.lip_node_set() | inc.slit_nodes) - provisional
+    beside = Beside.none(len(u)) if beside is None else beside
+    try:
+        region, layout, growth = _lay_out_piece(model, inc, u, on_tissue, near, beside, first, protected, provisional)
+    except SlitDoesNotFit:
+        if not beside.mask.any():
+            raise
+        # the strips beside an opening do not fit: the slit alone (a later event may take them)
+        region, layout, growth = _lay_out_piece(model, inc, u, on_tissue, near, Beside.none(len(u)), first,
+                                                protected, provisional)
+    return _apply(editor, inc, region, layout, positions, tool, growth)
+
+
+def _lay_out_piece(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, near: np.ndarray, beside: Beside,
+                   first: bool, protected: set[int], provisional: set[int]) -> tuple[Region, Layout, int]:
+    """Stages 1 and 3 of ``cut_piece`` before anything is written: the region, the band (and
+    the strips ``beside`` an opening) taken out of it and the tissue left filled, with the times
+    the region grew.
+
+    Raises:
+        SlitDoesNotFit: The band leaves no tissue to fill, or its region cannot be filled.
+    """
+    s = inc.spacing
     piece = inc.point_at(u)
-    region = Region.around(model, piece, on_tissue, near, clearance(inc), REGION_MARGIN * s, protected, provisional)
+    region = Region.around(model, piece, on_tissue | beside.mask, near, clearance(inc), REGION_MARGIN * s,
+                           protected, provisional)
     band = event_band(model, inc, u, on_tissue, first, near)
+    band.strips = strip_polygons(inc, u, beside, edge_clearance(inc))
     old_tip = add_old_tip(model, inc, region, band)
     if not region.triangles:
         raise SlitDoesNotFit("no tissue around the piece")
@@ -112,7 +138,7 @@ def cut_piece(editor: TopologyEditor, inc: Incision, u: np.ndarray, on_tissue: n
         if not _match_lips(band, model, (protected | provisional) & set(near.tolist()), MERGE * s):
             raise
         layout, growth = _fill(model, inc, region, band, chart, protected)
-    return _apply(editor, inc, region, layout, positions, tool, growth)
+    return region, layout, growth
 
 
 def _fill(model, inc: Incision, region: Region, band: SlitBand, chart: RegionChart,

@@ -64,6 +64,9 @@ class SlitBand:
     resumed_at: float | None = None
     """Arc length [m] where the last run begins at an opening's border (None: it goes on from
     the slit cut before or the start)."""
+    strips: list = field(default_factory=list)
+    """Polygons (m, 3) of rest points [m]: strips of tissue beside an opening the blade cuts off
+    (``beside.strip_polygons``), taken out with the band."""
 
 
 def _runs(on_tissue: np.ndarray) -> list[tuple[int, int]]:

@@ -14,7 +14,22 @@ from .chart import RegionChart, barycentric
 from .incision import Incision
 from .region import border_edges, distance_to_segments
 
-__all__ = ["on_tissue_at_rest", "rest_point_on_tissue", "joined_start"]
+__all__ = ["on_tissue_at_rest", "rest_point_on_tissue", "joined_start", "tissue_near"]
+
+
+def tissue_near(model: TissueModel, nodes: np.ndarray, own=frozenset()):
+    """(chart of the live triangles at ``nodes`` at rest (None without any), their rest corners
+    (t, 3, 3) [m], the rest ends (e, 2, 3) [m] of their edges on a border of the tissue but those
+    of the slit of nodes ``own``)."""
+    tris = np.array(model.index.triangles_at(nodes), dtype=np.int64)
+    if not len(tris):
+        return None, np.zeros((0, 3, 3)), np.zeros((0, 2, 3))
+    rest = model.points[model.triangle_table.column("corners")[tris]]
+    chart = RegionChart.of_triangles(rest)  # a point over a triangle, off its plane (a curve's chord) is on it
+    border = border_edges(model, tris)
+    if own:
+        border = border[~(np.isin(border[:, 0], list(own)) & np.isin(border[:, 1], list(own)))]
+    return chart, rest, model.points[border]
 
 
 def on_tissue_at_rest(model: TissueModel, points: np.ndarray, nodes: np.ndarray, edge: float,
@@ -23,18 +38,12 @@ def on_tissue_at_rest(model: TissueModel, points: np.ndarray, nodes: np.ndarray,
     ``nodes`` (within a hundredth of its size) and farther than ``edge`` [m] from the tissue's
     borders (but those of the slit of nodes ``own``: an incision's own): in the tissue, not in
     an opening nor at its edge."""
-    tris = np.array(model.index.triangles_at(nodes), dtype=np.int64)
-    if not len(tris):
+    chart, rest, ends = tissue_near(model, nodes, own)
+    if chart is None:
         return np.zeros(len(points), dtype=bool)
-    corners = model.triangle_table.column("corners")[tris]
-    rest = model.points[corners]
-    chart = RegionChart.of_triangles(rest)  # a point over a triangle, off its plane (a curve's chord) is on it
     lam = barycentric(chart.to2d(points), chart.to2d(rest))
     inside = np.nan_to_num(lam.min(axis=2), nan=-1.0).max(axis=1) >= -0.01
-    border = border_edges(model, tris)
-    if own:
-        border = border[~(np.isin(border[:, 0], list(own)) & np.isin(border[:, 1], list(own)))]
-    away = distance_to_segments(points, model.points[border[:, 0]], model.points[border[:, 1]]) > edge
+    away = distance_to_segments(points, ends[:, 0], ends[:, 1]) > edge
     return inside & away
 
 

@@ -95,3 +95,8 @@ the cut trimmed off, not a piece of skin (``islands.scraps_from``)."""
 
 SCRAP_TRIANGLES = 6
 """A piece is searched as a scrap up to this many triangles (a larger one is not a scrap)."""
+
+BESIDE_RUN = 2.0
+"""Least length [x s] of curve running beside an opening (``beside``: a border across the curve
+nearer than the edge clearance) whose strip of tissue the blade cuts off. Shorter runs are where
+a stroke meets or leaves a wound at an angle; the band's ends join those as before."""
