@@ -82,6 +82,16 @@ def test_the_nearest_triangle_is_the_brute_force_nearest(count, seed, point, tou
     assert np.array_equal(got, lam[k])
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 20), st.integers(0, 2**32 - 1), points_3d, st.floats(0.0, 2.0))
+def test_a_triangle_is_within_reach_exactly_when_the_nearest_is(count, seed, point, reach):
+    """The shortcut through the corners answers as the exact nearest distance does."""
+    from warp_cut.cut.material_point import _within
+
+    corners = np.random.default_rng(seed).uniform(-1.0, 1.0, (count, 3, 3))
+    assert _within(point, corners, reach) == (closest_on_triangles(point, corners)[0].min() <= reach)
+
+
 def test_a_degenerate_triangle_is_as_far_as_its_segment():
     """Corners (0,0,0), (1,0,0), (2,0,0) span the segment from x = 0 to 2: the point
     (0.5, 3, 0) is 3 away from it, at (0.5, 0, 0)."""

@@ -95,6 +95,14 @@ def nearest_triangle(point: np.ndarray, corners: np.ndarray) -> tuple[int, float
     return int(keep[k]), float(dist[k]), lam[k]
 
 
+def _within(point: np.ndarray, corners: np.ndarray, reach: float) -> bool:
+    """True if a triangle of ``corners`` (m >= 1, 3, 3) lies within ``reach`` [m] of ``point``
+    (3,): at once if a corner does (a triangle is no farther than its corners)."""
+    if np.sqrt(((corners - point) ** 2).sum(axis=2).min()) <= reach:
+        return True
+    return nearest_triangle(point, corners)[1] <= reach
+
+
 def material_point(point, current: np.ndarray, rest: np.ndarray, reach: float) -> MaterialPoint | None:
     """The material point of the crossing ``point`` [m] (3,): through the live triangle (current
     corners ``current`` (m, 3, 3) [m], rest corners ``rest`` (m, 3, 3) [m]) nearest to it, if
@@ -119,7 +127,7 @@ def affine_material_point(point, normal, current: np.ndarray, rest: np.ndarray, 
     (``current_corners`` (m, 3, 3)) lies within ``reach`` [m] of the crossing (over an opening),
     or the nodes do not span the plane (then the triangle map is used)."""
     point = np.asarray(point, dtype=np.float64)
-    if not len(current_corners) or nearest_triangle(point, np.asarray(current_corners, np.float64))[1] > reach:
+    if not len(current_corners) or not _within(point, np.asarray(current_corners, np.float64), reach):
         return None
     n = np.asarray(normal, dtype=np.float64)
     e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
