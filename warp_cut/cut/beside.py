@@ -54,7 +54,7 @@ class Beside:
         return Beside(self.mask[:count], self.first[:, :count], self.second[:, :count])
 
 
-def across_curve(inc: Incision, u: np.ndarray) -> np.ndarray:
+def _across_curve(inc: Incision, u: np.ndarray) -> np.ndarray:
     """Unit vectors (k, 3) across ``inc``'s curve to its left at arc lengths ``u`` (k,) [m]."""
     across = np.cross(inc.normal_at(u), inc.tangent_at(u))
     return across / np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
@@ -74,7 +74,7 @@ def beside_opening(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, n
     if not candidates.any():
         return Beside.none(count)
     chart, _, ends = tissue_near(model, nodes, inc.slit_nodes)
-    first, second = _borders_across(chart, points, across_curve(inc, u), ends, reach=edge + inc.spacing)
+    first, second = _borders_across(chart, points, _across_curve(inc, u), ends, reach=edge + inc.spacing)
     mask = _strip_runs(candidates & (first.min(axis=0) <= edge), inside, u, BESIDE_RUN * inc.spacing)
     return Beside(mask, first, second)
 
@@ -133,7 +133,7 @@ def strip_polygons(inc: Incision, u: np.ndarray, beside: Beside, edge: float) ->
     if not len(marks):
         return strips
     step = max(1, int(round(inc.spacing / max(float(np.median(np.diff(u))) if len(u) > 1 else inc.spacing, 1e-300))))
-    curve, across = inc.point_at(u), across_curve(inc, u)
+    curve, across = inc.point_at(u), _across_curve(inc, u)
     for run in np.split(marks, np.flatnonzero(np.diff(marks) > 1) + 1):
         sides = []
         for row, side in enumerate(_SIDES):
