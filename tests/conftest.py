@@ -41,6 +41,23 @@ def chain_model(n_free, *, mass=0.01, stiffness=10.0, spacing=0.1, damping=0.0, 
                                    damping=damping, material=Material(damping=damping))
 
 
+def grid_without(cells, n: int = 6, spacing: float = 1e-3):
+    """A flat grid of n x n nodes ``spacing`` [m] apart (node id = n row + column), every cell
+    split on one diagonal, the cells (row, column) of ``cells`` left out (an opening)."""
+    from warp_cut import TissueModel
+
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2) * spacing
+    points = np.column_stack([g, np.zeros(len(g))])
+    triangles = []
+    for r in range(n - 1):
+        for c in range(n - 1):
+            if (r, c) in cells:
+                continue
+            a, b, d, e = r * n + c, r * n + c + 1, (r + 1) * n + c, (r + 1) * n + c + 1
+            triangles += [[a, b, e], [a, e, d]]
+    return TissueModel.from_triangles(points, np.array(triangles))
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)

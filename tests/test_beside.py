@@ -8,8 +8,8 @@ are, and where the strip's sides lie are known by construction.
 
 import numpy as np
 import pytest
+from conftest import grid_without
 
-from warp_cut import TissueModel
 from warp_cut.cut.beside import Beside, beside_opening, strip_polygons
 from warp_cut.cut.incision import Incision
 from warp_cut.cut.tissue_at_rest import on_tissue_at_rest
@@ -19,20 +19,9 @@ EDGE = 0.5 * MM
 LIP = 0.1 * MM
 
 
-def grid_with_a_slot() -> TissueModel:
-    """6 x 6 nodes 1 mm apart (node id = 6 row + column), every cell split on one diagonal, the
-    cells of column 2 in rows 1-3 left out: an opening 1 x 3 mm."""
-    n = 6
-    g = np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2) * MM
-    points = np.column_stack([g, np.zeros(len(g))])
-    triangles = []
-    for r in range(n - 1):
-        for c in range(n - 1):
-            if c == 2 and 1 <= r <= 3:
-                continue
-            a, b, d, e = r * n + c, r * n + c + 1, (r + 1) * n + c, (r + 1) * n + c + 1
-            triangles += [[a, b, e], [a, e, d]]
-    return TissueModel.from_triangles(points, np.array(triangles))
+def grid_with_a_slot():
+    """6 x 6 nodes 1 mm apart, the cells of column 2 in rows 1-3 left out: an opening 1 x 3 mm."""
+    return grid_without({(1, 2), (2, 2), (3, 2)})
 
 
 def incision_up(x_mm: float) -> Incision:

@@ -8,6 +8,7 @@ a triangle and how far each lies from a border are known by construction.
 
 import numpy as np
 import pytest
+from conftest import grid_without
 
 from warp_cut import TissueModel
 from warp_cut.cut.incision import Incision
@@ -19,17 +20,7 @@ MM = 1e-3
 def grid_with_a_hole() -> TissueModel:
     """6 x 6 nodes 1 mm apart (node id = 6 row + column), every cell split on one diagonal,
     the middle cell (columns 2-3, rows 2-3) left out."""
-    n = 6
-    g = np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2) * MM
-    points = np.column_stack([g, np.zeros(len(g))])
-    triangles = []
-    for r in range(n - 1):
-        for c in range(n - 1):
-            if (r, c) == (2, 2):
-                continue
-            a, b, d, e = r * n + c, r * n + c + 1, (r + 1) * n + c, (r + 1) * n + c + 1
-            triangles += [[a, b, e], [a, e, d]]
-    return TissueModel.from_triangles(points, np.array(triangles))
+    return grid_without({(2, 2)})
 
 
 def at(x_mm, y_mm):
