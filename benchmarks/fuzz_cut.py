@@ -18,6 +18,7 @@ next case.
     python benchmarks/fuzz_cut.py --case SEED [--strokes K]    # replay one case (its first K strokes)
     python benchmarks/fuzz_cut.py --named                      # the named cases (a)-(f)
     python benchmarks/fuzz_cut.py --bending --out /tmp/fuzz_bending.md   # the skin resists bending
+    python benchmarks/fuzz_cut.py --no-strips --out /tmp/fuzz_no_strips.md  # no strip cut beside an opening
 
 ``--bending`` gives every case's material Table 1's bending rigidity (``physics.bending``,
 ``warp_cut.sim.bending``): the hinges are remade by every edit and checked with the rest.
