@@ -20,7 +20,8 @@ import numpy as np
 
 from .chart import RegionChart
 from .incision import Incision
-from .tissue_at_rest import on_tissue_at_rest, tissue_near
+from .slit_band import runs_of
+from .tissue_at_rest import on_triangles, tissue_near
 from .tolerances import BESIDE_RUN
 
 __all__ = ["Beside", "beside_opening", "strip_polygons"]
@@ -49,10 +50,6 @@ class Beside:
         """No sample beside an opening."""
         return cls(np.zeros(count, dtype=bool), np.full((2, count), np.inf), np.full((2, count), np.inf))
 
-    def take(self, count: int) -> Beside:
-        """The first ``count`` samples."""
-        return Beside(self.mask[:count], self.first[:, :count], self.second[:, :count])
-
 
 def _across_curve(inc: Incision, u: np.ndarray) -> np.ndarray:
     """Unit vectors (k, 3) across ``inc``'s curve to its left at arc lengths ``u`` (k,) [m]."""
@@ -68,12 +65,14 @@ def beside_opening(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, n
     count = len(u)
     if on_tissue.all():
         return Beside.none(count)
+    chart, rest, ends = tissue_near(model, nodes, inc.slit_nodes)
+    if chart is None:
+        return Beside.none(count)
     points = inc.point_at(u)
-    inside = on_tissue_at_rest(model, points, nodes, -1.0, inc.slit_nodes)
+    inside = on_triangles(chart, rest, points)
     candidates = inside & ~on_tissue
     if not candidates.any():
         return Beside.none(count)
-    chart, _, ends = tissue_near(model, nodes, inc.slit_nodes)
     first, second = _borders_across(chart, points, _across_curve(inc, u), ends, reach=edge + inc.spacing)
     mask = _strip_runs(candidates & (first.min(axis=0) <= edge), inside, u, BESIDE_RUN * inc.spacing)
     return Beside(mask, first, second)
@@ -85,12 +84,11 @@ def _strip_runs(mask: np.ndarray, inside: np.ndarray, u: np.ndarray, least: floa
     leaves an opening for a moment and goes back in (a recut wandering off the wound's line)
     cuts no strip off its side."""
     out = mask.copy()
-    marks = np.flatnonzero(mask)
-    for run in np.split(marks, np.flatnonzero(np.diff(marks) > 1) + 1) if len(marks) else []:
-        before, after = run[0] - 1, run[-1] + 1
+    for first, last in runs_of(mask):
+        before, after = first - 1, last + 1
         between = before >= 0 and after < len(mask) and not inside[before] and not inside[after]
-        if between or u[run[-1]] - u[run[0]] < least:
-            out[run] = False
+        if between or u[last] - u[first] < least:
+            out[first:last + 1] = False
     return out
 
 
@@ -129,12 +127,14 @@ def strip_polygons(inc: Incision, u: np.ndarray, beside: Beside, edge: float) ->
     at most); on the other side, to the lip line, with a vertex about every spacing (they become
     nodes of the new border)."""
     strips = []
-    marks = np.flatnonzero(beside.mask)
-    if not len(marks):
+    runs = runs_of(beside.mask)
+    if not runs:
         return strips
-    step = max(1, int(round(inc.spacing / max(float(np.median(np.diff(u))) if len(u) > 1 else inc.spacing, 1e-300))))
+    sample = float(np.median(np.diff(u))) if len(u) > 1 else inc.spacing  # [m] between samples
+    step = max(1, int(round(inc.spacing / max(sample, 1e-300))))          # samples a spacing apart
     curve, across = inc.point_at(u), _across_curve(inc, u)
-    for run in np.split(marks, np.flatnonzero(np.diff(marks) > 1) + 1):
+    for first_sample, last_sample in runs:
+        run = np.arange(first_sample, last_sample + 1)
         sides = []
         for row, side in enumerate(_SIDES):
             first, second = beside.first[row, run], beside.second[row, run]

@@ -69,7 +69,7 @@ class SlitBand:
     (``beside.strip_polygons``), taken out with the band."""
 
 
-def _runs(on_tissue: np.ndarray) -> list[tuple[int, int]]:
+def runs_of(on_tissue: np.ndarray) -> list[tuple[int, int]]:
     """(first, last) sample index of each run of True in ``on_tissue``."""
     out, start = [], None
     for k, inside in enumerate(on_tissue):
@@ -90,7 +90,7 @@ def samples_to_cut(u: np.ndarray, on_tissue: np.ndarray, least: float) -> int:
     such a run could hold no lip pair, and a slit from an opening without one is a wedge the
     next event cannot go on from. The cut then stops in the opening and the run waits for the
     blade to be further on."""
-    runs = _runs(np.asarray(on_tissue, dtype=bool))
+    runs = runs_of(np.asarray(on_tissue, dtype=bool))
     if not runs:
         return len(u)
     first, last = runs[-1]
@@ -244,7 +244,7 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
     ``borders``: node pairs (e, 2) of the tissue's border edges near (the incision's own slit
     left out), where a run's end in an opening meets them."""
     band = SlitBand()
-    for first, last in _runs(np.asarray(on_tissue, dtype=bool)):
+    for first, last in runs_of(np.asarray(on_tissue, dtype=bool)):
         if first == last and 0 < first < len(u) - 1 or (first == last == 0 and pair is None and not start_possible):
             continue  # one sample between openings: no length of tissue to open
         ua, ub = float(u[first]), float(u[last])

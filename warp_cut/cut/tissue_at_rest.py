@@ -14,7 +14,7 @@ from .chart import RegionChart, barycentric
 from .incision import Incision
 from .region import border_edges, distance_to_segments
 
-__all__ = ["on_tissue_at_rest", "rest_point_on_tissue", "joined_start", "tissue_near"]
+__all__ = ["on_tissue_at_rest", "rest_point_on_tissue", "joined_start", "tissue_near", "on_triangles"]
 
 
 def tissue_near(model: TissueModel, nodes: np.ndarray, own=frozenset()):
@@ -41,10 +41,15 @@ def on_tissue_at_rest(model: TissueModel, points: np.ndarray, nodes: np.ndarray,
     chart, rest, ends = tissue_near(model, nodes, own)
     if chart is None:
         return np.zeros(len(points), dtype=bool)
-    lam = barycentric(chart.to2d(points), chart.to2d(rest))
-    inside = np.nan_to_num(lam.min(axis=2), nan=-1.0).max(axis=1) >= -0.01
     away = distance_to_segments(points, ends[:, 0], ends[:, 1]) > edge
-    return inside & away
+    return on_triangles(chart, rest, points) & away
+
+
+def on_triangles(chart: RegionChart, rest: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Mask (k,) of the rest points (k, 3) [m] over one of the rest triangles ``rest`` (t, 3, 3)
+    [m] in ``chart`` (within a hundredth of its size)."""
+    lam = barycentric(chart.to2d(points), chart.to2d(rest))
+    return np.nan_to_num(lam.min(axis=2), nan=-1.0).max(axis=1) >= -0.01
 
 
 def rest_point_on_tissue(model: TissueModel, point: np.ndarray, spacing: float) -> bool:
