@@ -111,6 +111,14 @@ def _stroke_row(case, index, spec, stroke, result, sim, surface, wall) -> dict:
     }
 
 
+def _refused(before: dict, after: dict) -> dict:
+    """The stroke's refused cut events (``cutter.skipped`` counted before and after it): how
+    many, and the commonest reason."""
+    counts = {why: n - before.get(why, 0) for why, n in after.items() if n > before.get(why, 0)}
+    return {"refused_events": sum(counts.values()),
+            "refused_reason": max(counts, key=counts.get) if counts else ""}
+
+
 def _case_failure(case, message, tb) -> dict:
     return {"case": case.get("named") or case["seed"], "stroke": -1, "kind": case["kind"],
             "exception": message, "traceback": tb, "reproducer": reproducer(case, 0), "events": 0,
@@ -132,8 +140,10 @@ def run_case(case: dict, *, strokes: int | None = None, log=print) -> list[dict]
     for index, spec in enumerate(case["strokes"][:strokes]):
         stroke = build_stroke(surface, spec)
         start = time.perf_counter()
+        refused_before = dict(sim.cutter.skipped)
         result = run_stroke(sim, stroke, surface, border_keys=border)
         rows.append(_stroke_row(case, index, spec, stroke, result, sim, surface, time.perf_counter() - start))
+        rows[-1].update(_refused(refused_before, sim.cutter.skipped))
         log(_progress(rows[-1]))
         if result.exception:
             break  # the tissue is in an unknown state after an exception

@@ -1352,6 +1352,30 @@ def test_a_zigzag_corner_leaves_no_hole_and_opens_the_whole_path(case):
     assert_no_hole_after(sim, surface, strokes.zigzag(*zigzag), tool)
 
 
+@pytest.mark.parametrize("angle_deg", [12.0, 18.0])
+def test_a_stroke_crossing_an_earlier_wound_at_a_shallow_angle_cuts_on_past_it(angle_deg):
+    """A second 22 mm stroke (r 1 mm, 60 degrees) crossing a first one at its middle, 12 or 18
+    degrees off its line. Where the band meets the first wound, a thin wedge of tissue lies
+    between them, and the band touches the wound's border at a node or at one of its own points:
+    the tissue's outline passes that point twice. Each such point is one vertex and its corners
+    are the wedges of tissue (``layout._corners``), whose tips go with the band
+    (``layout.corner_cut``). Before, a degenerate triangle at a point GEOS gave twice (12
+    degrees: coverage 0.88) or a 17 degree corner no fill could mend (18 degrees: 0.50) refused
+    the event, and every event after it, until the tool left. Now no event is refused, the
+    stroke opens at least 0.9 of its path, and the cut's guarantees hold in the rest shape."""
+    surface = flat_grid(0.05, 0.002)
+    sim = supported_sim(surface, 1.0 / 60.0)
+    tool = (60.0, 0.001, 0.002, 0.02, 0.04)
+    one_valid_incision(sim, surface, strokes.line([-0.012, 0.0], 0.0, 0.024), *tool)
+    a = math.radians(angle_deg)
+    second = strokes.line([-0.011 * math.cos(a), -0.011 * math.sin(a)], a, 0.022)
+    result = one_valid_incision(sim, surface, second, *tool)
+    assert sim.cutter.skipped == {}
+    assert result.coverage >= 0.9
+    assert result.slivers == 0 and result.unfilled_holes == 0
+    assert_sound_rest_shape(sim.model, sim.cutter.live_new_triangles())
+
+
 @pytest.mark.parametrize("offset_mm, turn_deg", [(0.4, 0.0), (0.8, 4.0)])
 def test_a_stroke_beside_an_earlier_wound_cuts_off_the_strip_between_them(offset_mm, turn_deg):
     """A second 16 mm stroke (r 1 mm, 60 degrees) drawn beside a first one, 0.4 mm off its line,

@@ -23,9 +23,10 @@ from .fill import Fill, fill_region
 from .incision import Incision
 from .region import Region
 from .slit_band import BandPoint, SlitBand
-from .tolerances import MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
+from .tolerances import CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
 
-__all__ = ["Layout", "NewPoint", "SlitDoesNotFit", "lay_out", "matched_lips", "sharp_corners", "edge_of"]
+__all__ = ["Layout", "NewPoint", "SlitDoesNotFit", "lay_out", "matched_lips", "sharp_corners", "corner_cut",
+           "edge_of"]
 
 
 class SlitDoesNotFit(Exception):
@@ -42,9 +43,10 @@ class Layout:
     fill: Fill
     chart: RegionChart
     fixed: set
-    turns: dict
-    """Outline vertex id -> (its row, the row before it, the row after it) along the tissue's
-    new outline, the tissue on the left (rows of ``fill.points``)."""
+    turns: list
+    """(outline vertex id, its row, the row before it, the row after it) of every corner along
+    the tissue's new outline, the tissue on the left (rows of ``fill.points``): a vertex the
+    outline passes twice (where two pieces of tissue touch) has two."""
     cut_across: set
     """Fixed outline edges the band cuts across (the region must grow across them)."""
     stations: list
@@ -118,11 +120,35 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
     fixed = {(min(a, b), max(a, b)) for a, b in region.outline() if not region.on_mesh_border(a, b)}
     kept = {(min(a, b), max(a, b)) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1])}
     cut_across = {e for e in fixed if e not in kept and not {*e} & region.deleted}
-    turns = {b: (where[b], where[a], where[c]) for loop in loops
-             for a, b, c in zip(loop[-1:] + loop[:-1], loop, loop[1:] + loop[:1])}
+    turns = _corners([(b, where[b], where[a], where[c]) for loop in loops
+                      for a, b, c in zip(loop[-1:] + loop[:-1], loop, loop[1:] + loop[:1])], chart_points)
     band_lips = {(p.station, p.side): p.node for run in band.runs for p in run if p.node >= 0 and p.station >= 0}
     return Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations, band.resumed_at,
                    band_lips, matched)
+
+
+def _corners(turns: list, points: np.ndarray) -> list:
+    """The outline's ``turns`` (vertex, row, row before, row after) as the corners of tissue they
+    make: where the outline passes a vertex more than once (two pieces of tissue, or a hole and
+    the outline, touching there: GEOS may pair the edges either way), each edge leaving it is
+    paired with the edge coming in that is next counter-clockwise from it, the tissue on the
+    left lying between them. ``points`` (n, 2): the rows' chart points."""
+    rows: dict = {}
+    for turn in turns:
+        rows.setdefault(turn[1], []).append(turn)
+    out = []
+    for row, at in rows.items():
+        if len(at) == 1:
+            out += at
+            continue
+        befores = np.array([t[2] for t in at])
+        d = points[befores] - points[row]
+        back = np.arctan2(d[:, 1], d[:, 0])  # directions of the edges coming in, seen from the vertex
+        for v, _, _, after in at:
+            d = points[after] - points[row]
+            ccw = (back - np.arctan2(d[1], d[0])) % (2.0 * np.pi)
+            out.append((v, row, int(befores[np.argmin(ccw)]), after))
+    return out
 
 
 def _inside(pieces: list, nodes: list[int], model, chart: RegionChart, clear: float) -> list[int]:
@@ -209,7 +235,8 @@ def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[i
                 if isinstance(hit, (int, np.integer)):
                     ids.append(int(hit))
                     continue
-                key = tuple(xy)
+                # one vertex per band point: GEOS may return it twice, apart by rounding
+                key = id(hit) if isinstance(hit, BandPoint) else tuple(xy)
                 if key not in made:
                     points.append(NewPoint(hit if isinstance(hit, BandPoint) else None, xy))
                     made[key] = -len(points)
@@ -236,13 +263,15 @@ def _merge_near(ids: list[int], coords: np.ndarray, merge: float, matched: dict)
     return keep
 
 
-def sharp_corners(layout: Layout, protected: set[int]) -> list[tuple[int, np.ndarray | None]]:
+def sharp_corners(layout: Layout, protected: set[int]) -> list[tuple[tuple, np.ndarray | None]]:
     """Corners of the tissue's new outline under ``REFINE_ANGLE_DEG`` (the fill cannot mend them):
-    (vertex id, None) at a node of the region's own outline (the region takes its fan in), else
-    (vertex id, the corner's triangle (3, 2) in the chart: it goes with the band)."""
+    (the turn, ``Layout.turns``'s entry, None) at a node of the region's own outline (the region
+    takes its fan in), else (the turn, the corner's triangle (3, 2) in the chart: it goes with
+    the band)."""
     chart = layout.fill.points
     out = []
-    for v, (row, before, after) in layout.turns.items():
+    for turn in layout.turns:
+        v, row, before, after = turn
         if v in protected:
             continue
         a, b = chart[after] - chart[row], chart[before] - chart[row]
@@ -250,5 +279,24 @@ def sharp_corners(layout: Layout, protected: set[int]) -> list[tuple[int, np.nda
         if angle >= REFINE_ANGLE_DEG:
             continue
         wedge = np.array([chart[before], chart[row], chart[after]])
-        out.append((v, None if v >= 0 and layout.ids[before] >= 0 and layout.ids[after] >= 0 else wedge))
+        out.append((turn, None if v >= 0 and layout.ids[before] >= 0 and layout.ids[after] >= 0 else wedge))
     return out
+
+
+def corner_cut(layout: Layout, turn: tuple, spacing: float) -> np.ndarray:
+    """The tip of the sharp corner ``turn`` (``Layout.turns``'s entry) (3, 2) in the chart, to go
+    with the band: the triangle of its vertex and the points on its two outline edges as far from it as makes
+    the cut ``CORNER_CUT`` spacings wide (the whole edge, if shorter). The tissue left there is
+    thinner than that, and each new corner has about 90 degrees plus half the old one. For a
+    node on a border of the tissue (an earlier wound's edge), whose corner taking in its fan
+    does not remove."""
+    _, row, before, after = turn
+    chart = layout.fill.points
+    corner = chart[row]
+    sides = [chart[before] - corner, chart[after] - corner]
+    lengths = [float(np.linalg.norm(side)) for side in sides]
+    cos = float(np.dot(sides[0], sides[1])) / max(lengths[0] * lengths[1], 1e-300)
+    half_sin = np.sqrt(max(0.5 * (1.0 - cos), 1e-12))  # sin of half the corner's angle
+    reach = 0.5 * CORNER_CUT * spacing / half_sin
+    ends = [corner + side * min(1.0, reach / max(length, 1e-300)) for side, length in zip(sides, lengths)]
+    return np.array([ends[0], corner, ends[1]])

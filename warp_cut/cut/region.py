@@ -140,14 +140,17 @@ class Region:
             for v in sharp.tolist():
                 self.triangles |= self.index.node_triangles[v]
 
-    def sweep(self, nodes) -> None:
+    def sweep(self, nodes) -> list[int]:
         """Take in the fans of ``nodes``; those on a border of the tissue are deleted too (a sharp
-        corner of tissue between the slit and a border goes with the band)."""
+        corner of tissue between the slit and a border goes with the band). Returns those on a
+        border: the fan taken in leaves their corner where it was (``layout.corner_cut``)."""
         nodes = np.fromiter((int(v) for v in nodes), dtype=np.int64)
-        for v, on_border in zip(nodes.tolist(), border_nodes(model=self.model, nodes=nodes).tolist()):
-            if on_border:
+        on_border = border_nodes(model=self.model, nodes=nodes)
+        for v, border in zip(nodes.tolist(), on_border.tolist()):
+            if border:
                 self.deleted.add(v)
             self.triangles |= self.index.node_triangles[v]
+        return nodes[on_border].tolist()
 
     def grow(self, edges) -> None:
         """Take in the triangles across the outline edges ``edges`` (node pairs) that the region

@@ -39,7 +39,7 @@ from .classes import NodeClass, SpringClass
 from .event_band import add_old_tip, clear_of_old_tip, clearance, edge_clearance, event_band
 from .fill import Fill
 from .incision import Incision
-from .layout import Layout, SlitDoesNotFit, edge_of, lay_out, matched_lips, sharp_corners
+from .layout import Layout, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
 from .region import Region
 from .slit_band import EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand
 from .tolerances import (
@@ -159,9 +159,10 @@ def _fill(model, inc: Incision, region: Region, band: SlitBand, chart: RegionCha
         if not (refused or sharp) or growth == MAX_GROWTH:
             break
         region.grow(refused)
-        for v, wedge in sharp:
+        for turn, wedge in sharp:
             if wedge is None:
-                region.sweep([v])
+                if region.sweep([turn[0]]):  # its fan taken in, a corner on the tissue's border stays
+                    wedges.append(corner_cut(layout, turn, inc.spacing))
             else:
                 wedges.append(wedge)
     if refused:  # a split outline edge would leave a node on the edge of a triangle outside
@@ -262,7 +263,7 @@ def _inserted_on_slit(layout: Layout, slit_nodes: set[int]) -> list[int]:
     with an end among the new points or both ends on the slit)."""
     fill, ids = layout.fill, layout.ids
     extra = fill.points[len(ids):]
-    edges = [(row, after) for v, (row, _, after) in layout.turns.items()
+    edges = [(row, after) for v, row, _, after in layout.turns
              if v < 0 or ids[after] < 0 or (v in slit_nodes and ids[after] in slit_nodes)]
     if not len(extra) or not edges:
         return []

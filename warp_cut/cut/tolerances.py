@@ -62,6 +62,11 @@ opening (an earlier wound): it is not carried into the rest shape, the incision 
 REGION_MARGIN = 0.5
 """Triangles within lip offset + clearance + REGION_MARGIN x s of the curve are re-meshed."""
 
+CORNER_CUT = 0.5
+"""Width [x s] of the cut across a sharp corner of tissue at a node on a border (an earlier
+wound's edge between the slit and that wound): its tip goes with the band
+(``layout.corner_cut``)."""
+
 MAX_GROWTH = 4
 """Times a region may grow (a fixed edge the refinement had to split, a sharp corner) before its
 fill is accepted as it is."""
