@@ -101,7 +101,7 @@ def test_where_a_slit_touches_a_border_at_a_node_the_corners_are_the_tissue_betw
     raw = [(0, 0, 2, 1), (0, 0, 3, 4)]  # (vertex, row, before, after): border 2 -> 0 -> 1, band 3 -> 0 -> 4
     corners = _corners(raw, points)
     assert sorted((t[2], t[3]) for t in corners) == [(2, 4), (3, 1)]
-    for v, row, before, after in corners:
+    for _, row, before, after in corners:
         a, b = points[after] - points[row], points[before] - points[row]
         angle = math.degrees(math.atan2(a[0] * b[1] - a[1] * b[0], a @ b)) % 360.0
         assert math.isclose(angle, 15.0 if after == 1 else 25.0, abs_tol=1e-9)
