@@ -66,6 +66,8 @@ def _stats(rows) -> dict:
         "covered": sum(c >= COVERED for c in cov),
         "no_skin": len(ran) - len(cov),
         "slivers": sum(r.get("slivers", 0) > 0 for r in ran),
+        "refused": sum(r.get("refused_events", 0) for r in ran),
+        "refused_strokes": sum(r.get("refused_events", 0) > 0 for r in ran),
         "settled_cases": sum("settled_folded" in r for r in rows),
         "settled_folded_cases": sum(r.get("settled_folded", 0) > 0 for r in rows),
         "settled_folded": sum(r.get("settled_folded", 0) for r in rows),
@@ -97,6 +99,8 @@ def _totals(rows, wall) -> list[str]:
         f"strokes with coverage >= {COVERED}: {s['covered']} of {s['strokes']} "
         f"({s['no_skin']} with no skin under their trace)",
         f"- strokes leaving slivers (< 10 deg) among the triangles they made: {s['slivers']}",
+        f"- cut events refused (the slit did not fit; the next event tried again, `refused_reason` in the "
+        f"CSV says why): {s['refused']}, in {s['refused_strokes']} strokes",
         f"- after a case's last stroke, the skin settled {SETTLE_S} s with the tool gone ({s['settled_cases']} "
         f"cases): cases with a triangle folded over **{s['settled_folded_cases']}** ({s['settled_folded']} "
         f"triangles, {s['settled_folded_cut']} of them made by the cut); cases with a triangle the cut made "
