@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import grid_without
 
+from warp_cut.cut import beside as beside_module
 from warp_cut.cut.beside import Beside, beside_opening, strip_polygons
 from warp_cut.cut.incision import Incision
 from warp_cut.cut.tissue_at_rest import on_tissue_at_rest
@@ -102,9 +103,11 @@ def test_no_sample_beside_an_opening_no_strip():
     assert strip_polygons(inc, np.linspace(0, MM, 5), Beside.none(5), EDGE) == []
 
 
-def test_a_short_run_beside_an_opening_is_where_a_stroke_meets_it_and_cuts_no_strip():
+def test_a_short_run_beside_an_opening_is_where_a_stroke_meets_it_and_cuts_no_strip(monkeypatch):
     """With a station spacing of 2 mm the 3 mm run beside the opening is shorter than
-    ``BESIDE_RUN`` spacings: the band's ends join the opening as before, no strip."""
+    ``BESIDE_RUN`` spacings (set to 2 here): the band's ends join the opening as before, no
+    strip."""
+    monkeypatch.setattr(beside_module, "BESIDE_RUN", 2.0)
     inc = Incision(np.array([1.7 * MM, 0.2 * MM, 0.0]), [0, 0, 1], spacing=2 * MM, lip_offset=LIP, tolerance=1e-6)
     for y in np.linspace(1.0, 4.8, 8):
         inc.extend(np.array([1.7 * MM, y * MM, 0.0]), 0.0)
