@@ -235,10 +235,11 @@ def _loops(pieces: list, table: _VertexTable, merge: float) -> tuple[list[list[i
                 if isinstance(hit, (int, np.integer)):
                     ids.append(int(hit))
                     continue
+                band = hit if isinstance(hit, BandPoint) else None
                 # one vertex per band point: GEOS may return it twice, apart by rounding
-                key = id(hit) if isinstance(hit, BandPoint) else tuple(xy)
+                key = tuple(xy) if band is None else id(band)
                 if key not in made:
-                    points.append(NewPoint(hit if isinstance(hit, BandPoint) else None, xy))
+                    points.append(NewPoint(band, xy))
                     made[key] = -len(points)
                 ids.append(made[key])
             keep = [k for k in range(len(ids)) if ids[k] != ids[k - 1]]  # two points matched one vertex
@@ -263,20 +264,24 @@ def _merge_near(ids: list[int], coords: np.ndarray, merge: float, matched: dict)
     return keep
 
 
+def corner_angle(chart: np.ndarray, turn: tuple) -> float:
+    """The angle [deg] of tissue at the corner ``turn`` (``Layout.turns``'s entry), from the edge
+    leaving it counter-clockwise to the edge coming in; ``chart`` (n, 2): the rows' points."""
+    _, row, before, after = turn
+    a, b = chart[after] - chart[row], chart[before] - chart[row]
+    return float(np.degrees(np.arctan2(a[0] * b[1] - a[1] * b[0], a @ b)) % 360.0)
+
+
 def sharp_corners(layout: Layout, protected: set[int]) -> list[tuple[tuple, np.ndarray | None]]:
-    """Corners of the tissue's new outline under ``REFINE_ANGLE_DEG`` (the fill cannot mend them):
-    (the turn, ``Layout.turns``'s entry, None) at a node of the region's own outline (the region
-    takes its fan in), else (the turn, the corner's triangle (3, 2) in the chart: it goes with
-    the band)."""
+    """Corners of the tissue's new outline under ``REFINE_ANGLE_DEG`` (the fill cannot mend them),
+    each as (its turn (``Layout.turns``'s entry), None) at a node of the region's own outline
+    (the region takes its fan in), else (its turn, the corner's triangle (3, 2) in the chart: it
+    goes with the band)."""
     chart = layout.fill.points
     out = []
     for turn in layout.turns:
         v, row, before, after = turn
-        if v in protected:
-            continue
-        a, b = chart[after] - chart[row], chart[before] - chart[row]
-        angle = np.degrees(np.arctan2(a[0] * b[1] - a[1] * b[0], a @ b)) % 360.0  # after -> before, CCW
-        if angle >= REFINE_ANGLE_DEG:
+        if v in protected or corner_angle(chart, turn) >= REFINE_ANGLE_DEG:
             continue
         wedge = np.array([chart[before], chart[row], chart[after]])
         out.append((turn, None if v >= 0 and layout.ids[before] >= 0 and layout.ids[after] >= 0 else wedge))
@@ -284,19 +289,18 @@ def sharp_corners(layout: Layout, protected: set[int]) -> list[tuple[tuple, np.n
 
 
 def corner_cut(layout: Layout, turn: tuple, spacing: float) -> np.ndarray:
-    """The tip of the sharp corner ``turn`` (``Layout.turns``'s entry) (3, 2) in the chart, to go
-    with the band: the triangle of its vertex and the points on its two outline edges as far from it as makes
-    the cut ``CORNER_CUT`` spacings wide (the whole edge, if shorter). The tissue left there is
-    thinner than that, and each new corner has about 90 degrees plus half the old one. For a
-    node on a border of the tissue (an earlier wound's edge), whose corner taking in its fan
-    does not remove."""
+    """The tip (3, 2) in the chart of the sharp corner ``turn`` (``Layout.turns``'s entry), to go
+    with the band: the triangle of its vertex and the points on its two outline edges as far
+    from it as makes the cut ``CORNER_CUT`` spacings wide (the whole edge, if shorter). The
+    tissue left there is thinner than that, and each new corner has about 90 degrees plus half
+    the old one. For a node on a border of the tissue (an earlier wound's edge), whose corner
+    taking in its fan does not remove."""
     _, row, before, after = turn
     chart = layout.fill.points
     corner = chart[row]
     sides = [chart[before] - corner, chart[after] - corner]
     lengths = [float(np.linalg.norm(side)) for side in sides]
-    cos = float(np.dot(sides[0], sides[1])) / max(lengths[0] * lengths[1], 1e-300)
-    half_sin = np.sqrt(max(0.5 * (1.0 - cos), 1e-12))  # sin of half the corner's angle
+    half_sin = max(np.sin(np.radians(corner_angle(chart, turn)) / 2.0), 1e-6)  # sin of half the corner
     reach = 0.5 * CORNER_CUT * spacing / half_sin
     ends = [corner + side * min(1.0, reach / max(length, 1e-300)) for side, length in zip(sides, lengths)]
     return np.array([ends[0], corner, ends[1]])
