@@ -1137,6 +1137,46 @@ def test_a_thick_upright_tool_on_a_jittered_disk_keeps_the_cut_guarantees():
     assert_cut_guarantees(sim, surface, cut_stroke(sim, surface, path, tool), joins=False)
 
 
+@pytest.mark.parametrize("turn_deg", [90.0, 120.0])
+def test_a_curve_turning_past_the_old_tip_leaves_no_finger_and_no_hole(turn_deg):
+    """An incision (r 0.7 mm, lip offset 0.175 mm, an event every 0.33 mm) runs 8 mm along x,
+    then turns 90 or 120 degrees and runs 8 mm on. Past its newest lip pair the slit ends in a
+    wedge to the tip; round the corner each event's wedge ran straight from that pair to a new
+    tip, and the old tip was kept as a finger of opening beside it (0.75 mm off the curve).
+    The fingers then closed off as a hole (90 degrees: 3 border loops). The end past the pair is
+    cut again at every event: the mesh is valid after every event, the wound is one border
+    loop with the patch's, and no node of it lies more than 3 lip offsets off the curve (a lip
+    line round the corner lies sqrt(2) lip offsets off it, a node matched to a lip a little
+    more)."""
+    model, sim = patch_sim((0.04, 0.04), pinned="none")
+    y = between_rows(model)
+    corner = np.array([0.0, y, 0.0])
+    a = math.radians(180.0 - turn_deg)
+    end = corner + 0.008 * np.array([math.cos(a), math.sin(a), 0.0])
+    cut_along(sim, [corner - [0.008, 0.0, 0.0], corner, end], radius=0.0007, step=0.00033)
+    inc = sim.cutter.incisions[-1]
+    assert border_loop_count(model.triangles) == 2
+    wound = np.unique(border_edges(model.triangles))
+    outside = np.abs(model.points[wound]).max(axis=1) > 0.0199  # the patch's own border
+    off_curve = inc.project(model.points[wound[~outside]])[2]
+    assert off_curve.max() <= 3.0 * inc.lip_offset
+
+
+def test_a_zigzag_turning_103_degrees_leaves_no_hole_at_its_corners():
+    """A zigzag (r 0.67 mm, 44 degrees, corners turning 103 degrees) on a 2.2 mm grid, no
+    gravity or support, a cut event every 0.5 ms (fuzz seed 1, case 4045558824): round each
+    corner the old slit ends past the newest lip pair stayed as fingers of opening, which a
+    later event closed off as 2 holes. The end past the pair is cut again at every event: one
+    incision, one border loop more, sound rest triangles, >= 0.95 of the path opened."""
+    surface = flat_grid(0.04277129968446817, 0.002241195041240262)
+    sim = unsupported_sim(surface, 0.0005038327216963659)
+    path = strokes.zigzag([0.0, -0.007776599942630576], 1.972890855632651, 0.016781989574275107,
+                          0.0046652740992405945, 0.014835529688710627)
+    tool = (44.4817776828733, 0.0006651261687248985, 0.0027350868936785074, 0.012608881008608692,
+            0.04424737974781391)
+    assert_cut_guarantees(sim, surface, cut_stroke(sim, surface, path, tool), joins=False)
+
+
 def test_a_hole_round_the_lost_start_node_is_filled_from_the_lip_it_touches():
     """A zigzag (r 0.91 mm, 71 degrees) on a 1.8 mm cylinder mesh (radius 15.5 mm), a cut event
     every step, no gravity: a later event removed the slit's start node, and the hole round the

@@ -10,10 +10,11 @@ computed here with numpy, and hand-made regions (one triangle, a region at the p
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from warp_cut import TissueModel
+from warp_cut.cut.chart import RegionChart
 from warp_cut.cut.region import Region, distance_to_segments, tissue_segments
 from warp_cut.cut.tolerances import ROUND_ANGLE_DEG
 
@@ -242,3 +243,33 @@ def test_sweep_takes_fans_and_deletes_only_the_nodes_at_the_border():
     region.sweep([inner, edge])
     assert region.triangles == triangles_at(model, [inner, edge])
     assert region.deleted == {edge}
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.2, 1.0), st.floats(0.0, 1.0)), min_size=3, max_size=7))
+def test_healed_triangles_cover_the_healed_ring_with_its_own_nodes(radii_and_turns):
+    """A ring of patch nodes taken back into the tissue (``Region.healed``; here a star-shaped
+    ring round the centre node, convex or not) is covered by triangles of its own nodes: they
+    tile it exactly (their union is the ring's polygon and their areas sum to its area), so a
+    new node the fill puts inside it gets its rest position from nodes of the ring."""
+    model = patch()
+    centre = model.points[int(np.argmin(np.linalg.norm(model.points, axis=1)))]
+    turns = np.cumsum([t for _, t in radii_and_turns])
+    angles = 2.0 * np.pi * turns / (turns[-1] + 1.0)  # increasing, less than a full turn
+    ring = []
+    for (r, _), a in zip(radii_and_turns, angles):
+        target = centre + 5e-3 * r * np.array([np.cos(a), np.sin(a), 0.0])
+        v = int(np.argmin(np.linalg.norm(model.points - target, axis=1)))
+        if v not in ring:
+            ring.append(v)
+    assume(len(ring) >= 3)  # else the nodes were too close to make a ring
+    polygon = shapely.Polygon(model.points[ring][:, :2])
+    assume(polygon.is_valid and polygon.area > 1e-9)  # not collinear, not crossing itself
+    region = Region(model, [], [])
+    region.healed.append(ring)
+    chart = RegionChart.of_triangles(model.points[model.triangles])
+    triangles = region.healed_triangles(chart)
+    assert set(triangles.ravel().tolist()) <= set(ring)
+    pieces = [shapely.Polygon(model.points[t][:, :2]) for t in triangles]
+    assert sum(p.area for p in pieces) == pytest.approx(polygon.area, rel=1e-9)
+    assert shapely.union_all(pieces).symmetric_difference(polygon).area <= 1e-9 * polygon.area

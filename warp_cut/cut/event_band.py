@@ -3,8 +3,9 @@
 ``slit_band.plan_band`` lays the band out along the incision's curve; here its ends are found
 in the tissue as it is: the newest live lip pair it closes onto, the incision's start, or the
 border of an opening it runs into (``event_band``); the end of the slit cut before, past that
-pair, which the band takes in (``add_old_tip``); and the new lips kept out of that end
-(``clear_of_old_tip``). ``clearance`` and ``edge_clearance`` say how far from the curve the
+pair, which the event cuts again (``add_old_tip``: the region takes it back into its tissue, or,
+where nodes of it are not the slit's to re-make, the band takes it in); and the new lips kept
+out of such an end (``clear_of_old_tip``). ``clearance`` and ``edge_clearance`` say how far from the curve the
 band sweeps tissue nodes and how far from a border the curve must lie to count as in the
 tissue. Lengths in metres.
 """
@@ -58,11 +59,10 @@ def event_band(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, first
                      points=model.points, borders=borders)
 
 
-def add_old_tip(model, inc: Incision, region: Region, band: SlitBand) -> list | None:
-    """Add to the band the end of the slit cut before, past its newest lip pair: the slit's
-    outline from the left lip of that pair round the old tip to the right one (a polygon of
-    nodes), so that band and old slit join without a sliver of tissue between them. Returns
-    that run (None: no pair, or no such outline)."""
+def old_tip_outline(model, inc: Incision, region: Region) -> list[int] | None:
+    """The end of the slit cut before, past its newest lip pair: the slit's outline (node slots)
+    from the left lip of that pair round the old tip to the right one, along the region's
+    outline (None: no pair, or no such outline)."""
     k = inc.last_pair(model.active)
     if k < 0:
         return None
@@ -78,6 +78,23 @@ def add_old_tip(model, inc: Incision, region: Region, band: SlitBand) -> list | 
         v = nexts[0]
         chain.append(v)
     if v != right or len(chain) < 3:
+        return None
+    return chain
+
+
+def add_old_tip(model, inc: Incision, region: Region, band: SlitBand, provisional: set[int]) -> list | None:
+    """Take the end of the slit cut before, past its newest lip pair (``old_tip_outline``), into
+    the event. Where every node of it but the pair is ``provisional`` (the slit runs on from
+    there), it is cut again: the region takes that opening back into its tissue
+    (``Region.healed``) and the band alone decides what is open, so the old tip leaves no
+    finger where the curve turned after it. Otherwise the band takes it in (a polygon of
+    nodes), so that band and old slit join without a sliver of tissue between them; that run
+    is returned (None: healed, no pair, or no such outline)."""
+    chain = old_tip_outline(model, inc, region)
+    if chain is None:
+        return None
+    if set(chain[1:-1]) <= provisional:
+        region.healed.append(chain)
         return None
     run = [BandPoint(model.points[w], 0, CUT_BEFORE, 0.0, w) for w in chain]
     band.runs.append(run)

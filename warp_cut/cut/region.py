@@ -20,6 +20,7 @@ Shapes: node and triangle slots are int arrays; positions (k, 3) [m].
 from __future__ import annotations
 
 import numpy as np
+import shapely
 
 from ..mesh.geometry import triangle_angles
 from ..mesh.triangulate import boundary_edges
@@ -83,6 +84,9 @@ class Region:
         self.index: TopologyIndex = model.index
         self.deleted = set(int(v) for v in deleted)
         self.triangles = set(int(t) for t in triangles)
+        self.healed: list = []
+        """Node rings (lists of node slots): openings the event takes back into the region's
+        tissue (the end of the slit past its newest lip pair, which it cuts again)."""
 
     @classmethod
     def around(cls, model, curve: np.ndarray, on_tissue: np.ndarray, near: np.ndarray, clearance: float,
@@ -106,6 +110,22 @@ class Region:
         return region
 
     # ------------------------------------------------------------------ shape
+    def healed_triangles(self, chart) -> np.ndarray:
+        """(t, 3) node slots of triangles covering the ``healed`` openings (a constrained
+        Delaunay triangulation of each ring in ``chart``, a ``RegionChart``): with the region's
+        triangles, they map the tissue the fill covers back onto the surface."""
+        out = []
+        for ring in self.healed:
+            xy = chart.to2d(self.model.points[ring])
+            triangles = shapely.constrained_delaunay_triangles(shapely.make_valid(shapely.Polygon(xy)))
+            for triangle in getattr(triangles, "geoms", [triangles]):
+                if not isinstance(triangle, shapely.Polygon) or triangle.is_empty:
+                    continue
+                corners = np.asarray(triangle.exterior.coords)[:3]
+                nearest = np.argmin(np.linalg.norm(xy[None] - corners[:, None], axis=2), axis=1)
+                out.append([ring[k] for k in nearest.tolist()])
+        return np.array(out, dtype=np.int64).reshape(-1, 3)
+
     def outline(self) -> list[tuple[int, int]]:
         """The region's border edges (a, b), directed with the region on their left (each
         appears in one region triangle only; the mesh's counter-clockwise winding)."""

@@ -125,7 +125,7 @@ def _lay_out_piece(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, n
                            protected, provisional)
     band = event_band(model, inc, u, on_tissue, first, near)
     band.strips = strip_polygons(inc, u, beside, edge_clearance(inc))
-    old_tip = add_old_tip(model, inc, region, band)
+    old_tip = add_old_tip(model, inc, region, band, provisional)
     if not region.triangles:
         raise SlitDoesNotFit("no tissue around the piece")
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
@@ -231,7 +231,8 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: Layout
     ``positions``."""
     model = editor.model
     fill, ids = layout.fill, layout.ids
-    corners = model.triangle_table.column("corners")[sorted(region.triangles)]
+    corners = np.concatenate([model.triangle_table.column("corners")[sorted(region.triangles)],
+                              region.healed_triangles(layout.chart)])
     lift = PiecewiseLinearMap(layout.chart.to2d(model.points[corners]), model.points[corners],
                               positions[corners.reshape(-1)].reshape(-1, 3, 3))
     new_rows = [k for k, v in enumerate(ids) if v < 0] + list(range(len(ids), len(fill.points)))
