@@ -200,17 +200,41 @@ def test_a_lip_line_meets_the_nearer_of_two_borders_close_together():
     assert meets[1].node == 1
 
 
-@pytest.mark.parametrize("lip_offset, kept", [(1e-4, False), (1e-3, True)])
-def test_a_pairless_wedge_from_the_start_sharper_than_the_smallest_angle_is_left(lip_offset, kept):
-    """A slit from its start into an opening 3 mm on (border x = 3 mm) with no station on the
-    way: a wedge from the start to the border. With a 0.1 mm lip offset its angle at the start
-    is 3.8 deg, under MIN_ANGLE_DEG: no fill has a good triangle there, and the run is left
-    (no band); with 1 mm it is 37 deg and the band is that wedge."""
+@pytest.mark.parametrize("lip_offset", [1e-4, 1e-3])
+def test_a_slit_from_its_start_into_an_opening_too_short_for_its_stations_gets_one_lip_pair(lip_offset):
+    """A slit from its start into an opening 3 mm on (border x = 3 mm; the last sample on the
+    tissue at 2.8 mm) where no station falls due (the next one is further on): one station
+    halfway, at 1.4 mm (no nearer the opening than the 1 mm margin), its lips at +-lip offset,
+    then the lip lines meet the border. Without it the band was a wedge from the start
+    to the border (with a 0.1 mm lip offset both lip lines met the border at one node, a band
+    with no area, and a later stroke starting 3 mm from an earlier wound opened none of it)."""
     points = np.array([[3.0, 3.0, 0], [3.0, 0.5, 0], [3.0, -3.0, 0]]) * 1e-3
     inc = Incision([0, 0, 0], [0, 0, 1], spacing=S, lip_offset=lip_offset, tolerance=1e-6)
     inc.extend([LENGTH, 0, 0], 1e-9)
     u = samples(51)
-    band = band_of(inc, u, u < 2.9e-3, stations=(), points=points, borders=[(0, 1), (1, 2)])
+    band = band_of(inc, u, u < 2.9e-3, stations=(0.004,), points=points, borders=[(0, 1), (1, 2)])
+    assert len(band.runs) == 1
+    run = band.runs[0]
+    assert band.stations == pytest.approx([1.4e-3])
+    assert run[0].station == START and [p.station for p in run[1:]].count(0) == 2
+    lips = {p.side: p.rest for p in run if p.station == 0}
+    assert lips[1] == pytest.approx([1.4e-3, lip_offset, 0.0]) and lips[-1] == pytest.approx([1.4e-3, -lip_offset, 0.0])
+    assert {p.station for p in run[1:] if p.station != 0} == {JUNCTION}
+    assert shapely.Polygon(ring_xy(run)).area > 0.0
+
+
+@pytest.mark.parametrize("lip_offset, kept", [(1e-4, False), (1e-3, True)])
+def test_a_pairless_wedge_from_the_start_sharper_than_the_smallest_angle_is_left(lip_offset, kept):
+    """A slit from its start into an opening 1.5 mm on (border x = 1.5 mm), shorter than the
+    margin (1 mm) and the first station together: no lip pair fits, and the band is a wedge
+    from the start to the border. With a 0.1 mm lip offset its angle at the start is under
+    MIN_ANGLE_DEG: no fill has a good triangle there, and the run is left (no band); with
+    1 mm it is the wedge."""
+    points = np.array([[1.5, 3.0, 0], [1.5, 1.5, 0], [1.5, -3.0, 0]]) * 1e-3
+    inc = Incision([0, 0, 0], [0, 0, 1], spacing=S, lip_offset=lip_offset, tolerance=1e-6)
+    inc.extend([LENGTH, 0, 0], 1e-9)
+    u = samples(101)
+    band = band_of(inc, u, u < 0.95e-3, stations=(), points=points, borders=[(0, 1), (1, 2)])
     assert len(band.runs) == (1 if kept else 0)
     if kept:
         stations = [p.station for p in band.runs[0]]
