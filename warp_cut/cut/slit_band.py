@@ -272,7 +272,8 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
             wanted = inc.stations_from(ua + FIRST_STATION * inc.spacing, ub - margin)
         hi = ub if last == len(u) - 1 else ub - margin
         if left[0].station == START and last < len(u) - 1 and not any(lo < s <= hi + 1e-12 for s in wanted):
-            wanted = [min(0.5 * (ua + ub), hi)]  # too short for a station where they fall: one halfway gives the band width
+            # from the start into an opening, too short for a station where they fall: one halfway gives it width
+            wanted = [min(0.5 * (ua + ub), hi)]
         for s in wanted:
             if lo < s <= hi + 1e-12:
                 k = len(band.stations)
