@@ -235,7 +235,8 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
     """The band of an event cutting ``inc`` along the samples ``u`` (k,) [m] (the last one the
     tip's), ``on_tissue`` (k,) bool; ``stations``: arc lengths of the new stations of a run
     that goes on from the slit cut before or its start (a run from an opening has its own, from
-    ``FIRST_STATION`` spacings past its first sample, as the incision's first run has); ``pair``:
+    ``FIRST_STATION`` spacings past its first sample, as the incision's first run has; a run from
+    the start into an opening that none of them falls in gets one halfway); ``pair``:
     the incision's newest live lip pair (left, right) at ``pair_u`` [m], which the band closes
     onto when its first run starts at the piece's start, else None; ``start``: the start node
     (None: a new one, where the run starts at the incision's start and ``start_possible``);
