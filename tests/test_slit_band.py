@@ -120,6 +120,24 @@ def test_a_slit_whose_blade_entered_in_an_opening_reaches_back_into_it():
     assert all(p.u > ua + 1e-3 for p in lips)
 
 
+def test_a_run_from_an_opening_to_the_tip_too_short_for_its_stations_gets_one_lip_pair():
+    """From an opening (samples to 8 mm over it) to the tip at 10 mm: its own first station
+    would fall FIRST_STATION spacings (1.3 mm) past its first sample, beyond the tip less
+    nothing; it gets one halfway between the margin (1 mm) past the opening and the tip, at
+    9.6 mm, so the band has width there. (Where both lip lines met an earlier wound's border
+    at one node, it had none, and the fill never laid the tip: a stroke crossing a wound at 12
+    degrees had its last event refused three times.)"""
+    inc = straight()
+    u = samples(51)
+    on = u > 8e-3 + 1e-12
+    ua = u[on][0]
+    band = band_of(inc, u, on, start_possible=False)
+    run = band.runs[0]
+    assert band.stations == pytest.approx([0.5 * (ua + 1e-3 + LENGTH)])
+    assert [p.station for p in run] == [EXTENSION, 0, TIP, 0, EXTENSION]
+    assert shapely.Polygon(ring_xy(run)).is_valid and signed_area(ring_xy(run)) < 0
+
+
 # ----------------------------------------------------------------------------- openings
 
 def test_a_slit_over_an_opening_in_the_middle_is_two_runs_that_reach_into_it():

@@ -236,7 +236,8 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
     tip's), ``on_tissue`` (k,) bool; ``stations``: arc lengths of the new stations of a run
     that goes on from the slit cut before or its start (a run from an opening has its own, from
     ``FIRST_STATION`` spacings past its first sample, as the incision's first run has; a run from
-    the start into an opening that none of them falls in gets one halfway); ``pair``:
+    the start into an opening, or from an opening to the tip, that none of them falls in gets
+    one halfway); ``pair``:
     the incision's newest live lip pair (left, right) at ``pair_u`` [m], which the band closes
     onto when its first run starts at the piece's start, else None; ``start``: the start node
     (None: a new one, where the run starts at the incision's start and ``start_possible``);
@@ -272,9 +273,12 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
             lo = ua + margin
             wanted = inc.stations_from(ua + FIRST_STATION * inc.spacing, ub - margin)
         hi = ub if last == len(u) - 1 else ub - margin
-        if left[0].station == START and last < len(u) - 1 and not any(lo < s <= hi + 1e-12 for s in wanted):
-            # from the start into an opening, too short for a station where they fall: one halfway gives it width
-            wanted = [min(0.5 * (ua + ub), hi)]
+        if not any(lo < s <= hi + 1e-12 for s in wanted):
+            # too short for a station where they fall: one halfway gives the band width
+            if left[0].station == START and last < len(u) - 1:  # from the start into an opening
+                wanted = [min(0.5 * (ua + ub), hi)]
+            elif band.resumed_at == ua and last == len(u) - 1:  # from an opening to the tip
+                wanted = [0.5 * (lo + hi)]
         for s in wanted:
             if lo < s <= hi + 1e-12:
                 k = len(band.stations)
