@@ -27,6 +27,7 @@ nothing waits for the tool to leave.
 from __future__ import annotations
 
 import time
+from functools import partial
 
 import numpy as np
 import warp as wp
@@ -39,9 +40,7 @@ from ..mesh.triangulate import border_loop_count
 from ..sim.control import Tool
 from ..sim.model import TissueModel
 from ..sim.strokes import inside_cylinder
-from .beside import beside_opening
 from .contact import BladeContact, HitLists
-from .event_band import clearance, edge_clearance
 from .events import EventClock
 from .flips import flip_to_delaunay
 from .host import CutHost
@@ -49,12 +48,12 @@ from .incision import Incision
 from .islands import islands_from, piece_nodes, scraps_from
 from .material_point import MaterialPoint
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
+from .piece import Piece, piece_to_cut
 from .remesh import PieceCut, SlitDoesNotFit, cut_piece
 from .settings import CutSettings
-from .slit_band import samples_to_cut
 from .surface import Crossing
-from .tissue_at_rest import joined_start, on_tissue_at_rest, rest_point_on_tissue
-from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
+from .tissue_at_rest import joined_start, rest_point_on_tissue
+from .tolerances import MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
 from .topology import NodePositions, TopologyEditor
 from .wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
@@ -70,6 +69,8 @@ STAGES = ("locate", "stage2_bezier", "stage1_swept_band", "stage3_fill", "device
 _TOTALS = ("deleted_nodes", "deleted_springs", "residual_links", "carried_links", "lost_links", "lip_nodes",
            "inserted_nodes", "new_springs", "removed_fragments", "removed_islands", "removed_scraps", "region_growths",
            "unrefined_triangles", "delaunay_flips", "events", "skipped_events")
+
+
 
 
 class Cutter:
@@ -377,49 +378,46 @@ class Cutter:
         incision's last cut (nothing waits for a later event). False if nothing was cut (too
         short a piece, a slit that does not fit, a joined start the blade's travel has not yet
         kept or undone: the next event tries again)."""
-        if inc.entry is not None:  # the blade's travel has not yet kept or undone a joined start
-            if not final:
-                return False
-            inc.entry = None
-        editor = self.editor
-        first = not inc.station_u and inc.tip_node < 0
-        unopened = inc.last_pair(self.model.active) < 0  # until a lip pair stands, cut from the start again
-        u_from = inc.resume_u if inc.cut_point is None or unopened else float(inc.project(inc.cut_point[None])[0][0])
-        if upto - u_from < MIN_ADVANCE * self.spacing:
-            return False
-        if tool is not None and unopened and inc.starts_on_tissue and inc.resume_u == 0.0 \
-                and not inc.next_stations(upto - LAST_STATION * self.spacing):
-            return False  # from its start the slit opens once it holds its first lip pair (it has width then)
-        u = np.linspace(u_from, upto, max(9, int(np.ceil((upto - u_from) / (0.1 * self.spacing))) + 1))
-        piece = inc.point_at(u)
-        near = self.contact.nodes_near_at_rest(sim, piece[0], piece[-1],
-                                               clearance(inc) + 3.0 * self.spacing + 0.5 * (upto - u_from))
-        on_tissue = on_tissue_at_rest(self.model, piece, near, edge_clearance(inc), inc.slit_nodes)
-        if tool is not None and not on_tissue[-1]:
-            return False  # the tip would lie in an opening: wait till the blade is through it
-        if not final:  # a run past an opening waits until it can hold a lip pair
-            keep = samples_to_cut(u, on_tissue, (FIRST_STATION + LAST_STATION) * self.spacing)
-            if keep == 0:
-                return False
-            u, piece, on_tissue = u[:keep], piece[:keep], on_tissue[:keep]
-        beside = beside_opening(self.model, inc, u, on_tissue, near, edge_clearance(inc))
-        if not (on_tissue | beside.mask).any():
-            inc.cut_point = piece[-1].copy()  # all of it over an opening: nothing to cut
+        piece = piece_to_cut(self.model, partial(self.contact.nodes_near_at_rest, sim), inc, tool, upto, final)
+        if piece is None:
             return False
         positions = NodePositions(self._positions_view(sim))
-        editor.begin()
+        self.editor.begin()
         t3 = time.perf_counter()
+        cut = self._cut_piece(inc, piece, positions, tool)
+        if cut is None:
+            return False
+        t4 = time.perf_counter()
+        report = self._finish_edit(inc, piece, cut, positions, final)
+        t5 = time.perf_counter()
+        self._apply(sim, report, positions)
+        t6 = time.perf_counter()
+        self._count(report, cut)
+        self._record_latency((*times, t3, t4, t5, t6))
+        return True
+
+    def _cut_piece(self, inc: Incision, piece: Piece, positions: NodePositions, tool: Tool | None) -> PieceCut | None:
+        """Stages 1 and 3 on ``piece`` (``remesh.cut_piece``, in the edit begun); None if its slit
+        does not fit (counted in ``skipped`` by the reason)."""
+        first = not inc.station_u and inc.tip_node < 0
         try:
-            cut = cut_piece(editor, inc, u, on_tissue, near, positions, tool=tool, first=first, beside=beside)
+            return cut_piece(self.editor, inc, piece.u, piece.on_tissue, piece.near, positions, tool=tool,
+                             first=first, beside=piece.beside)
         except SlitDoesNotFit as why:
             self.totals["skipped_events"] += 1
             self.skipped[str(why)] = self.skipped.get(str(why), 0) + 1
-            if not on_tissue.any():
-                inc.cut_point = piece[-1].copy()  # only a strip beside an opening, which does not fit
-            return False
-        t4 = time.perf_counter()
-        inc.cut_point = piece[-1].copy()
-        self._wound_links(inc, piece, cut)
+            if not piece.on_tissue.any():
+                inc.cut_point = piece.points[-1].copy()  # only a strip beside an opening, which does not fit
+            return None
+
+    def _finish_edit(self, inc: Incision, piece: Piece, cut: PieceCut, positions: NodePositions, final: bool):
+        """After the re-mesh: the cut point moves to the piece's end, the springs the piece
+        crossed get their links, nodes pinched apart are split, scraps and the islands cut free
+        go, the edit is finished and the residual links carried to the nodes that take them.
+        Returns the editor's report of the edit."""
+        editor = self.editor
+        inc.cut_point = piece.points[-1].copy()
+        self._wound_links(inc, piece.points, cut)
         split = editor.split_pinched_nodes(editor.touched_nodes, positions)
         cut.inserted += split
         cut.met_border |= bool(split)  # a node split apart may be all that held a piece
@@ -427,15 +425,15 @@ class Cutter:
         report = editor.finish(positions=positions)
         takers = cut.lips + cut.inserted + list(editor.touched_nodes)
         self.totals["lost_links"] += carry_links(editor, inc, report, takers, reach=2.0 * self.spacing)
-        report = editor.report
-        t5 = time.perf_counter()
-        self._apply(sim, report, positions)
-        t6 = time.perf_counter()
-        self._count(report, cut)
-        t0, t1, t2 = times
+        return editor.report
+
+    def _record_latency(self, times: tuple) -> None:
+        """Each stage's time [ms] (``STAGES``) from the perf_counter marks ``times``: the event's
+        start, after locating, after the curve, before and after the re-mesh, after the links
+        and islands, after mirroring the edit."""
+        t0, t1, t2, t3, t4, t5, t6 = times
         for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t4 - t3, t5 - t4, t6 - t5)):
             self.latency_ms[name].append(1e3 * dt)
-        return True
 
     def _wound_links(self, inc: Incision, piece: np.ndarray, cut: PieceCut) -> None:
         """The links of the tissue's springs ``piece`` crosses (the paper's links model)."""

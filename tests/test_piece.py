@@ -1,0 +1,91 @@
+"""warp_cut/cut/piece.py: which piece of an incision's rest curve one event cuts, and when it
+waits.
+
+Compared against: a hand-built flat grid of 1 mm squares (12 x 12 nodes) with an opening
+(columns 6-7 of row 2: x 6-8 mm, y 2-3 mm), an incision along y = 2.6 mm from x = 1 mm, and
+the nodes near a segment found here by brute force, where which samples lie on the tissue and
+where the opening begins are known by construction.
+"""
+
+import numpy as np
+import pytest
+from conftest import grid_without
+
+from warp_cut.cut.incision import Incision
+from warp_cut.cut.piece import piece_to_cut
+from warp_cut.cut.tolerances import MIN_ADVANCE
+from warp_cut.sim.control import Tool
+
+MM = 1e-3
+Y = 2.6 * MM
+
+
+def grid():
+    """12 x 12 nodes 1 mm apart, the cells at row 2, columns 6-7 left out (an opening)."""
+    return grid_without({(2, 6), (2, 7)}, n=12)
+
+
+def nodes_near(model):
+    """Live nodes whose rest position lies within ``radius`` of the segment a-b (brute force)."""
+    def near(a, b, radius):
+        ab = b - a
+        t = np.clip((model.points - a) @ ab / max(ab @ ab, 1e-300), 0.0, 1.0)
+        d = np.linalg.norm(a + t[:, None] * ab - model.points, axis=1)
+        return np.flatnonzero((d <= radius) & model.active)
+    return near
+
+
+def incision(to_x_mm: float) -> Incision:
+    """A straight incision along y = 2.6 mm from x = 1 mm to ``to_x_mm`` (lip offset 0.1 mm)."""
+    inc = Incision([1 * MM, Y, 0], [0, 0, 1], spacing=1 * MM, lip_offset=0.1 * MM, tolerance=1e-6)
+    inc.extend([to_x_mm * MM, Y, 0], 1e-9)
+    inc.starts_on_tissue = True
+    return inc
+
+
+TOOL = Tool([0.0, 0.0, 1.0e-3], [0.0, 0.0, 2.0e-3], 0.2e-3)
+
+
+def test_a_piece_on_the_tissue_is_sampled_every_tenth_of_a_spacing():
+    """From the start to 4 mm along (x 1-5 mm, all on the tissue, clear of the opening by more
+    than the edge clearance): samples a tenth of a spacing apart from 0 to 4 mm, every one on
+    the tissue, none beside an opening, the live nodes near among those found."""
+    model = grid()
+    inc = incision(5.0)
+    piece = piece_to_cut(model, nodes_near(model), inc, TOOL, 4.0 * MM, final=False)
+    assert piece is not None
+    assert piece.u[0] == 0.0 and piece.u[-1] == pytest.approx(4.0 * MM)
+    assert np.diff(piece.u).max() <= 0.1 * MM + 1e-12
+    assert piece.points[:, 1] == pytest.approx(np.full(len(piece.u), Y))
+    assert piece.on_tissue.all() and not piece.beside.mask.any()
+    assert set(piece.near.tolist()) <= set(np.flatnonzero(model.active).tolist())
+
+
+def test_a_piece_shorter_than_the_least_advance_waits():
+    model = grid()
+    inc = incision(5.0)
+    assert piece_to_cut(model, nodes_near(model), inc, TOOL, 0.9 * MIN_ADVANCE * MM, final=True) is None
+
+
+def test_a_tip_in_an_opening_waits_for_the_blade_unless_the_incision_ends():
+    """To 6 mm along (x 7 mm, inside the opening): while the blade is in the skin the event
+    waits; the incision's last cut (the blade gone) takes the piece, its samples from x = 6 mm
+    less the edge clearance over the opening."""
+    model = grid()
+    inc = incision(9.0)
+    assert piece_to_cut(model, nodes_near(model), inc, TOOL, 6.0 * MM, final=False) is None
+    piece = piece_to_cut(model, nodes_near(model), inc, None, 6.0 * MM, final=True)
+    assert piece is not None and piece.on_tissue[0] and not piece.on_tissue[-1]
+    x = piece.points[:, 0]
+    assert not piece.on_tissue[x > 6.0 * MM].any()
+
+
+def test_a_piece_all_over_an_opening_cuts_nothing_and_the_cut_point_moves_past_it():
+    """A slit cut to x = 6.2 mm (inside the opening, cut point there); the next piece, to
+    x = 7.8 mm, lies all in the opening: nothing to cut, and the cut point moves to its end."""
+    model = grid()
+    inc = incision(9.0)
+    inc.cut_point = np.array([6.2 * MM, Y, 0.0])
+    inc.station_u, inc.left, inc.right = [1.0 * MM], [0], [1]  # a standing lip pair (live nodes)
+    assert piece_to_cut(model, nodes_near(model), inc, None, 6.8 * MM, final=True) is None
+    assert inc.cut_point == pytest.approx([7.8 * MM, Y, 0.0])

@@ -1,0 +1,80 @@
+"""Which piece of an incision's rest curve one cut event cuts, and when it waits.
+
+An event cuts from the incision's last cut to arc length ``upto`` (the blade's crossing, less
+what stays behind it): that piece is sampled every tenth of a spacing, each sample judged on
+the tissue or over an opening (``tissue_at_rest.on_tissue_at_rest``) and beside one
+(``beside.beside_opening``). The event waits (the next one, a longer piece, tries again) while
+
+* the blade's travel has not yet kept or undone a start joined to an earlier wound;
+* the piece is shorter than ``MIN_ADVANCE`` spacings;
+* a slit from its start holds no lip pair yet (it has width once it does);
+* its tip would lie in an opening (the blade is not yet through it);
+* a run past an opening is too short for a lip pair (``slit_band.samples_to_cut``);
+
+an incision's last cut (``final``) waits for none of these but the first two. A piece all over
+an opening cuts nothing, and the cut point moves on past it. Lengths in metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..sim.control import Tool
+from .beside import Beside, beside_opening
+from .event_band import clearance, edge_clearance
+from .incision import Incision
+from .slit_band import samples_to_cut
+from .tissue_at_rest import on_tissue_at_rest
+from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE
+
+__all__ = ["Piece", "piece_to_cut"]
+
+
+@dataclass
+class Piece:
+    """The samples of one event's piece of rest curve: arc lengths ``u`` (k,) [m], rest
+    ``points`` (k, 3) [m], which lie ``on_tissue`` (k,) bool, those ``beside`` an opening
+    (``beside.Beside``), and the live nodes ``near`` it (node slots)."""
+
+    u: np.ndarray
+    points: np.ndarray
+    on_tissue: np.ndarray
+    beside: Beside
+    near: np.ndarray
+
+
+def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: float, final: bool) -> Piece | None:
+    """The samples of the piece of ``inc``'s curve from its last cut to arc length ``upto`` [m]
+    that this event cuts, or None while it waits (see the module docstring). ``nodes_near(a, b,
+    radius)``: the live nodes whose rest positions lie within ``radius`` [m] of the segment a-b
+    (``BladeContact.nodes_near_at_rest``); ``tool``: the tool now (None: the blade has left)."""
+    s = inc.spacing
+    if inc.entry is not None:  # the blade's travel has not yet kept or undone a joined start
+        if not final:
+            return None
+        inc.entry = None
+    unopened = inc.last_pair(model.active) < 0  # until a lip pair stands, cut from the start again
+    u_from = inc.resume_u if inc.cut_point is None or unopened else float(inc.project(inc.cut_point[None])[0][0])
+    if upto - u_from < MIN_ADVANCE * s:
+        return None
+    if tool is not None and unopened and inc.starts_on_tissue and inc.resume_u == 0.0 \
+            and not inc.next_stations(upto - LAST_STATION * s):
+        return None  # from its start the slit opens once it holds its first lip pair (it has width then)
+    u = np.linspace(u_from, upto, max(9, int(np.ceil((upto - u_from) / (0.1 * s))) + 1))
+    points = inc.point_at(u)
+    near = nodes_near(points[0], points[-1], clearance(inc) + 3.0 * s + 0.5 * (upto - u_from))
+    on_tissue = on_tissue_at_rest(model, points, near, edge_clearance(inc), inc.slit_nodes)
+    if tool is not None and not on_tissue[-1]:
+        return None  # the tip would lie in an opening: wait till the blade is through it
+    if not final:  # a run past an opening waits until it can hold a lip pair
+        keep = samples_to_cut(u, on_tissue, (FIRST_STATION + LAST_STATION) * s)
+        if keep == 0:
+            return None
+        u, points, on_tissue = u[:keep], points[:keep], on_tissue[:keep]
+    beside = beside_opening(model, inc, u, on_tissue, near, edge_clearance(inc))
+    if not (on_tissue | beside.mask).any():
+        inc.cut_point = points[-1].copy()  # all of it over an opening: nothing to cut
+        return None
+    return Piece(u, points, on_tissue, beside, near)
