@@ -45,10 +45,11 @@ bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[bench]"
 	$(PY) benchmarks/run_all.py
 
-# Cut fuzz (not part of `make test`; up to 30 min, where it stops starting new cases): random meshes and strokes, every invariant
+# Cut fuzz (not part of `make test`; 10,000 cut events, about 30 min on a quiet machine, and it stops starting new
+# cases after 75 min on a slow one): random meshes and strokes, every invariant
 # after every cut event; report in benchmarks/results/fuzz.md (+ fuzz.csv), the named hard cases
 # in fuzz_named.md. A quick look: make fuzz FUZZ_ARGS="--quick --events 300".
-FUZZ_ARGS ?= --events 10000 --seed 1
+FUZZ_ARGS ?= --events 10000 --seed 1 --max-minutes 75
 fuzz: $(STAMP)
 	nice $(PY) benchmarks/fuzz_cut.py $(FUZZ_ARGS)
 	nice $(PY) benchmarks/fuzz_cut.py --named
