@@ -71,8 +71,6 @@ _TOTALS = ("deleted_nodes", "deleted_springs", "residual_links", "carried_links"
            "unrefined_triangles", "delaunay_flips", "events", "skipped_events")
 
 
-
-
 class Cutter:
     """Cuts a TissueModel while a simulation of it runs.
 

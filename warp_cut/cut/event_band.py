@@ -3,11 +3,11 @@
 ``slit_band.plan_band`` lays the band out along the incision's curve; here its ends are found
 in the tissue as it is: the newest live lip pair it closes onto, the incision's start, or the
 border of an opening it runs into (``event_band``); the end of the slit cut before, past that
-pair, which the event cuts again (``add_old_tip``: the region takes it back into its tissue, or,
-where nodes of it are not the slit's to re-make, the band takes it in); and the new lips kept
-out of such an end (``clear_of_old_tip``). ``clearance`` and ``edge_clearance`` say how far from the curve the
-band sweeps tissue nodes and how far from a border the curve must lie to count as in the
-tissue. Lengths in metres.
+pair, which the event cuts again (``add_old_tip``: the region takes it back into its tissue,
+or, where nodes of it are not the slit's to re-make, the band takes it in); and the new lips
+kept out of such an end (``clear_of_old_tip``). ``clearance`` and ``edge_clearance`` say how
+far from the curve the band sweeps tissue nodes and how far from a border the curve must lie
+to count as in the tissue. Lengths in metres.
 """
 
 from __future__ import annotations

@@ -94,8 +94,8 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
         SlitDoesNotFit: No tissue is left, or the fill found no area.
     """
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
-    healed = [shapely.make_valid(shapely.Polygon(chart.to2d(model.points[ring]))) for ring in region.healed]
-    tissue = shapely.union_all(list(shapely.polygons(chart.to2d(model.points[corners]))) + healed)
+    triangles = list(shapely.polygons(chart.to2d(model.points[corners])))
+    tissue = shapely.union_all(triangles + region.healed_polygons(chart))
     rings = [_distinct(chart.to2d(np.array([p.rest for p in run]))) for run in band.runs]
     strips = [chart.to2d(strip) for strip in band.strips]
     cut = shapely.union_all([shapely.make_valid(shapely.Polygon(r)) for r in rings + strips if len(r) >= 3]

@@ -110,14 +110,18 @@ class Region:
         return region
 
     # ------------------------------------------------------------------ shape
+    def healed_polygons(self, chart) -> list:
+        """The ``healed`` openings as Shapely polygons in ``chart`` (a ``RegionChart``)."""
+        return [shapely.make_valid(shapely.Polygon(chart.to2d(self.model.points[ring]))) for ring in self.healed]
+
     def healed_triangles(self, chart) -> np.ndarray:
         """(t, 3) node slots of triangles covering the ``healed`` openings (a constrained
         Delaunay triangulation of each ring in ``chart``, a ``RegionChart``): with the region's
         triangles, they map the tissue the fill covers back onto the surface."""
         out = []
-        for ring in self.healed:
+        for ring, polygon in zip(self.healed, self.healed_polygons(chart)):
             xy = chart.to2d(self.model.points[ring])
-            triangles = shapely.constrained_delaunay_triangles(shapely.make_valid(shapely.Polygon(xy)))
+            triangles = shapely.constrained_delaunay_triangles(polygon)
             for triangle in getattr(triangles, "geoms", [triangles]):
                 if not isinstance(triangle, shapely.Polygon) or triangle.is_empty:
                     continue

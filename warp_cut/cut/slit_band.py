@@ -252,14 +252,18 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
         ua, ub = float(u[first]), float(u[last])
         left, right = [], []
         wanted = stations
+        to_tip = last == len(u) - 1
         if first == 0 and pair is not None:  # closes onto the slit cut before
+            begins = "pair"
             left.append(BandPoint(points[pair[0]], 1, CUT_BEFORE, pair_u, pair[0]))
             right.append(BandPoint(points[pair[1]], -1, CUT_BEFORE, pair_u, pair[1]))
             lo = pair_u
         elif first == 0 and ua <= 1e-12 and start_possible:  # the incision's start
+            begins = "start"
             left.append(_point(inc, 0.0, 0, START, -1 if start is None else start))
             lo = 0.0
         else:  # from an opening
+            begins = "opening"
             band.resumed_at = ua
             back = _junction(inc, ua, -1, 3.0 * extension, borders, points)
             if back is None:
@@ -272,20 +276,16 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
                 left[:0] = [BandPoint(points[w], 0, JUNCTION, ua, w) for w in chain]
             lo = ua + margin
             wanted = inc.stations_from(ua + FIRST_STATION * inc.spacing, ub - margin)
-        hi = ub if last == len(u) - 1 else ub - margin
+        hi = ub if to_tip else ub - margin
         if not any(lo < s <= hi + 1e-12 for s in wanted):
-            # too short for a station where they fall: one halfway gives the band width
-            if left[0].station == START and last < len(u) - 1:  # from the start into an opening
-                wanted = [min(0.5 * (ua + ub), hi)]
-            elif band.resumed_at == ua and last == len(u) - 1:  # from an opening to the tip
-                wanted = [0.5 * (lo + hi)]
+            wanted = _station_halfway(begins, to_tip, ua, ub, lo, hi)
         for s in wanted:
             if lo < s <= hi + 1e-12:
                 k = len(band.stations)
                 band.stations.append(float(s))
                 left.append(_point(inc, s, 1, k))
                 right.append(_point(inc, s, -1, k))
-        if last == len(u) - 1:  # the tip
+        if to_tip:
             front = [_point(inc, ub, 0, TIP)]
         else:  # into an opening
             ahead = _junction(inc, ub, 1, 3.0 * extension, borders, points)
@@ -298,6 +298,19 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
             continue
         band.runs.append(left + front + right[::-1])
     return band
+
+
+def _station_halfway(begins: str, to_tip: bool, ua: float, ub: float, lo: float, hi: float) -> list[float]:
+    """The station [m] a run from ``ua`` to ``ub`` too short for any that falls due gets, so that
+    its band has width (where both lip lines meet an opening's border at one node it has none
+    without): from the incision's start into an opening, halfway but no nearer the opening than
+    ``hi``; from an opening to the tip, halfway between ``lo`` (the margin past the opening) and
+    the tip. None for other runs. ``begins``: "pair", "start" or "opening"."""
+    if begins == "start" and not to_tip:
+        return [min(0.5 * (ua + ub), hi)]
+    if begins == "opening" and to_tip:
+        return [0.5 * (lo + hi)]
+    return []
 
 
 def _sliver_wedge(left: list, right: list, front: list) -> bool:
