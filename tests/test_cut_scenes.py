@@ -164,10 +164,13 @@ def test_cut_events_follow_the_interval_or_the_travel(setting):
 @pytest.mark.parametrize("integrator", ["semi_implicit", "implicit_euler", "xpbd"])
 def test_every_integrator_cuts_one_open_incision(integrator):
     """A 1 cm stroke under each integrator: the run is finite, the mesh valid, one stroke is
-    one incision with no hole left, it covers >= 90 % of the tool's path in the skin, and its
-    length is the blade's travel in the skin (``drawing``: 1 cm) within 10 % = 1 mm, about
-    half a spacing: its ends are where the axis crosses the skin fitted around the tool,
-    which the tool dents differently going in and coming out."""
+    one incision with no hole left, and it covers >= 90 % of the tool's path in the skin. Its
+    ends are where the blade crossed the skin going in and coming out, both along its axis:
+    the first crossing lies on the axis of the drawing's first pose, the last on that of its
+    last pose (to 1 um; the incision stopped 0.46 mm short of it under XPBD while its last
+    crossings had to advance ``MIN_ADVANCE`` spacings), and its rest length is the distance
+    between them within 5 %. Under XPBD the unsupported skin sags 1.3-3.2 mm under the tool,
+    so the 60 degree blade meets it up to 1.9 mm further on: 11 mm for 10 mm of travel."""
     scene, _, _ = short_stroke(0.01, [f'solver.integrator="{integrator}"'])
     start, end, travel = drawing(scene)
     assert travel / (end - start) == pytest.approx(0.02)  # the scene's 2 cm/s
@@ -176,8 +179,19 @@ def test_every_integrator_cuts_one_open_incision(integrator):
     assert m["finite"] and m["mesh"]["valid"], m["mesh"]["problems"]
     assert m["cut"]["incisions"] == 1 and m["cut"]["unfilled_holes"] == 0, m["cut"]
     assert m["incision"]["coverage"] >= 0.9, m["incision"]
-    assert m["incision"]["length_m"] == pytest.approx(travel, rel=0.1)
-    assert_open_slit(sim, sim.cutter.incisions[0])
+    inc = sim.cutter.incisions[0]
+    first, last = np.asarray(inc.contact_path[0]), np.asarray(inc.contact_path[-1])
+    keys = scene.tool.keyframes
+    assert distance_from_axis(first, keys[1]) < 1e-6 and distance_from_axis(last, keys[2]) < 1e-6
+    assert m["incision"]["length_m"] == pytest.approx(np.linalg.norm(last - first), rel=0.05)
+    assert_open_slit(sim, inc)
+
+
+def distance_from_axis(point, frame) -> float:
+    """Distance [m] of ``point`` (3,) from the line of the tool's axis in keyframe ``frame``."""
+    axis = (frame.p1 - frame.p0) / np.linalg.norm(frame.p1 - frame.p0)
+    d = np.asarray(point) - frame.p0
+    return float(np.linalg.norm(d - (d @ axis) * axis))
 
 
 # ------------------------------------------------------------------ the whole straight incision

@@ -13,14 +13,15 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 import warp as wp
-from conftest import DEVICE
+from conftest import DEVICE, grid_without
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from warp_cut import Material, Simulator, TissueModel, Tool, stable_time_step
 from warp_cut.cut.classes import NodeClass, SpringClass
 from warp_cut.cut.settings import CutSettings
-from warp_cut.cut.tolerances import LAST_STATION, MIN_ADVANCE
+from warp_cut.cut.tissue_at_rest import on_triangles, tissue_near
+from warp_cut.cut.tolerances import EXIT_ADVANCE, LAST_STATION, MIN_ADVANCE
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.errors import InputError
 from warp_cut.kernels.cutting import capsule_node_hits_among, capsule_spring_hits_among
@@ -615,12 +616,15 @@ def test_crossing_an_earlier_cut_and_restarting():
     assert len(cutter.incisions) == restarted + 1  # a new start is a new incision
 
 
-@pytest.mark.parametrize("exit_x", [0.0040, 0.0048, 0.0056])
+@pytest.mark.parametrize("exit_x", [0.0040, 0.0048, 0.0052, 0.0056])
 def test_a_blade_lifted_out_between_two_events_cuts_up_to_where_it_left(exit_x):
     """Events come a lip spacing of the tip's travel apart (the default), so a blade that rises
     out of the skin as it goes may leave it up to a spacing after the last event: the incision
     still reaches where the blade last crossed the skin (the exit point, where the rising tip
-    meets the surface) within the least advance an event cuts, and so does its slit."""
+    meets the surface), and so does its slit - also where that crossing lies less than the
+    least advance an event cuts (``MIN_ADVANCE``) past the path (exit 5.2 mm: it stopped 0.19
+    mm short while that held at the exit too). 0.05 spacing: the crossing is on the sagging
+    skin, 0.03 mm before the exit point on the rest plane."""
     model, sim = patch_sim(size=(0.03, 0.02))
     tilt, speed, depth, y = math.radians(60.0), 0.02, 1e-3, 0.0007
     axis = np.array([-math.cos(tilt), 0.0, math.sin(tilt)])
@@ -639,7 +643,7 @@ def test_a_blade_lifted_out_between_two_events_cuts_up_to_where_it_left(exit_x):
     sim.step(tool=None)
     assert len(sim.cutter.incisions) == 1
     inc = sim.cutter.incisions[0]
-    reach = MIN_ADVANCE * SPACING
+    reach = 0.05 * SPACING
     assert inc.path[-1][0] == pytest.approx(exit_x, abs=reach)
     assert inc.cut_point[0] == pytest.approx(exit_x, abs=reach)
     assert_valid(sim, "after the blade left")
@@ -858,11 +862,10 @@ def cut_stroke(sim, surface, path, tool) -> CutStroke:
 
 def end_allowance(sim, stroke) -> float:
     """How much of its trace's end [m] a stroke may leave unopened: the rest curve ends at the
-    last crossing that carried the blade at least ``MIN_ADVANCE`` spacings along it (the tool's
-    last stretch, shorter than that, extends nothing before it leaves), and at the material
-    point under the blade then, which the tool has pushed out of its cylinder: up to its radius
-    from where the trace lies at rest."""
-    return MIN_ADVANCE * sim.cutter.spacing + stroke.radius
+    blade's last crossing before it left the skin if that lies at least ``EXIT_ADVANCE``
+    spacings past it, and at the material point under the blade then, which the tool has
+    pushed out of its cylinder: up to its radius from where the trace lies at rest."""
+    return EXIT_ADVANCE * sim.cutter.spacing + stroke.radius
 
 
 def opened_fraction(sim, surface, cut: CutStroke, upto: float) -> float:
@@ -1483,3 +1486,53 @@ def test_a_stroke_beside_an_earlier_wound_cuts_off_the_strip_between_them(offset
     assert border_loop_count(sim.model.triangles) == loops
     assert result.slivers == 0 and result.unfilled_holes == 0
     assert_sound_rest_shape(sim.model, sim.cutter.live_new_triangles())
+
+
+def test_a_neck_of_tissue_between_two_openings_is_cut_through():
+    """A grid of 1 mm cells with two openings one cell apart (x 5-6 and 7-8 mm, y 5-6 mm) and a
+    straight cut across both along y = 5.6 mm, lip offset 0.25 mm: the neck between them (x 6-7
+    mm) is narrower than twice the edge clearance (0.55 mm), so no point of it lies clear of
+    its borders, yet the blade passes through it. It is cut through (``tissue_at_rest.necks``;
+    before, the cut point moved over it piece by piece and left it whole): no triangle lies
+    over the cut's line across the neck at rest, the mesh keeps every invariant after every
+    event, and the cut's triangles keep the smallest angle in the rest shape."""
+    model = grid_without({(5, 5), (5, 7)}, n=14)
+    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE,
+                    cutting=CutSettings(spacing=1e-3, lip_offset=2.5e-4))
+    y = 5.6e-3
+    cut_along(sim, [[2e-3, y, 0.0], [11e-3, y, 0.0]], radius=1e-3, step=5e-4)
+    across = np.column_stack([np.linspace(6.05e-3, 6.95e-3, 19), np.full(19, y), np.zeros(19)])
+    chart, rest, _ = tissue_near(model, np.flatnonzero(model.active))
+    assert not on_triangles(chart, rest, across).any()
+    assert_sound_rest_shape(model, sim.cutter.live_new_triangles())
+
+
+def test_a_neck_the_fill_cannot_cut_through_is_left_as_it_was(monkeypatch):
+    """The same cut, with a re-mesh that refuses every piece whose slit would cross the neck:
+    the event cuts the piece once more with the neck left whole (over an opening, as before
+    necks were cut), so no event is refused for it, the neck's tissue stays, and the mesh keeps
+    every invariant."""
+    import warp_cut.cut.cutter as cutter_module
+
+    real = cutter_module.cut_piece
+    tried = []
+
+    def refusing(editor, inc, u, on_tissue, near, positions, **kw):
+        x = inc.point_at(u)[:, 0]
+        neck = on_tissue & (x > 6.0e-3) & (x < 7.0e-3)
+        tried.append(bool(neck.any()))
+        if neck.any():
+            raise cutter_module.SlitDoesNotFit("a test refusing the neck")
+        return real(editor, inc, u, on_tissue, near, positions, **kw)
+
+    monkeypatch.setattr(cutter_module, "cut_piece", refusing)
+    model = grid_without({(5, 5), (5, 7)}, n=14)
+    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE,
+                    cutting=CutSettings(spacing=1e-3, lip_offset=2.5e-4))
+    y = 5.6e-3
+    cut_along(sim, [[2e-3, y, 0.0], [11e-3, y, 0.0]], radius=1e-3, step=5e-4)
+    assert any(tried)  # the neck was tried
+    assert "a test refusing the neck" not in sim.cutter.skipped
+    across = np.column_stack([np.linspace(6.05e-3, 6.95e-3, 19), np.full(19, y), np.zeros(19)])
+    chart, rest, _ = tissue_near(model, np.flatnonzero(model.active))
+    assert on_triangles(chart, rest, across).all()

@@ -35,9 +35,9 @@ def nodes_near(model):
     return near
 
 
-def incision(to_x_mm: float) -> Incision:
-    """A straight incision along y = 2.6 mm from x = 1 mm to ``to_x_mm`` (lip offset 0.1 mm)."""
-    inc = Incision([1 * MM, Y, 0], [0, 0, 1], spacing=1 * MM, lip_offset=0.1 * MM, tolerance=1e-6)
+def incision(to_x_mm: float, lip_offset_mm: float = 0.1) -> Incision:
+    """A straight incision along y = 2.6 mm from x = 1 mm to ``to_x_mm``."""
+    inc = Incision([1 * MM, Y, 0], [0, 0, 1], spacing=1 * MM, lip_offset=lip_offset_mm * MM, tolerance=1e-6)
     inc.extend([to_x_mm * MM, Y, 0], 1e-9)
     inc.starts_on_tissue = True
     return inc
@@ -89,3 +89,40 @@ def test_a_piece_all_over_an_opening_cuts_nothing_and_the_cut_point_moves_past_i
     inc.station_u, inc.left, inc.right = [1.0 * MM], [0], [1]  # a standing lip pair (live nodes)
     assert piece_to_cut(model, nodes_near(model), inc, None, 6.8 * MM, final=True) is None
     assert inc.cut_point == pytest.approx([7.8 * MM, Y, 0.0])
+
+
+def two_openings():
+    """12 x 12 nodes 1 mm apart, cells at row 2, columns 5 and 7 left out: two openings (x 5-6
+    and 7-8 mm, y 2-3 mm) with a neck of tissue 1 mm wide between them (x 6-7 mm)."""
+    return grid_without({(2, 5), (2, 7)}, n=12)
+
+
+def test_a_neck_between_two_openings_narrower_than_twice_the_edge_clearance_is_cut():
+    """Lip offset 0.25 mm: edge clearance 0.55 mm (+ 0.3 spacing), more than half the neck's
+    1 mm, so no sample of the neck lies clear of its borders. A piece from x = 4.5 to 9.5 mm
+    (tip clear of the second opening) takes the neck's samples (x 6-7 mm) as on the tissue,
+    marked ``necks``; those over the openings stay off it."""
+    model = two_openings()
+    inc = incision(11.0, lip_offset_mm=0.25)
+    inc.cut_point = np.array([4.5 * MM, Y, 0.0])
+    inc.station_u, inc.left, inc.right = [1.0 * MM], [0], [1]  # a standing lip pair (live nodes)
+    piece = piece_to_cut(model, nodes_near(model), inc, TOOL, 8.5 * MM, final=False)
+    assert piece is not None
+    x = piece.points[:, 0]
+    in_neck = (x >= 6.0 * MM - 1e-9) & (x <= 7.0 * MM + 1e-9)
+    assert piece.necks.tolist() == in_neck.tolist()
+    assert piece.on_tissue[in_neck].all()
+    assert not piece.on_tissue[((x > 5.0 * MM) & (x < 6.0 * MM)) | ((x > 7.0 * MM) & (x < 8.0 * MM))].any()
+
+
+def test_a_piece_with_nothing_to_cut_moves_the_cut_point_only_to_the_tissue_it_ends_on():
+    """The slit ends in the first opening (cut point x 5.5 mm); a piece to x = 6.5 mm (into the
+    neck, no sample of which lies clear of its borders) cuts nothing. The cut point moves to
+    the last sample over the opening, before x = 6 mm, not into the neck: the next piece holds
+    the whole neck and sees it between the two openings."""
+    model = two_openings()
+    inc = incision(11.0, lip_offset_mm=0.25)
+    inc.cut_point = np.array([5.5 * MM, Y, 0.0])
+    inc.station_u, inc.left, inc.right = [1.0 * MM], [0], [1]
+    assert piece_to_cut(model, nodes_near(model), inc, None, 5.5 * MM, final=False) is None
+    assert 5.5 * MM < inc.cut_point[0] < 6.0 * MM

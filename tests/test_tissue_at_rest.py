@@ -12,7 +12,7 @@ from conftest import grid_without
 
 from warp_cut import TissueModel
 from warp_cut.cut.incision import Incision
-from warp_cut.cut.tissue_at_rest import joined_start, on_tissue_at_rest, rest_point_on_tissue
+from warp_cut.cut.tissue_at_rest import joined_start, necks, on_tissue_at_rest, rest_point_on_tissue, tissue_and_edge
 
 MM = 1e-3
 
@@ -77,3 +77,30 @@ def test_a_corner_of_the_tissue_is_on_it_only_with_no_clearance(point):
     model = grid_with_a_hole()
     nodes = np.arange(model.node_count)
     assert not on_tissue_at_rest(model, at(*point), nodes, 0.01 * MM)[0]
+
+
+def test_tissue_and_edge_split_on_tissue_into_over_a_triangle_and_clear_of_a_border():
+    """On the tissue 0.2 mm from the hole (x 1.8 mm): over a triangle, not clear of 0.4 mm; in
+    the hole's middle: over none, yet 0.5 mm from every border; far from it: both. Their and
+    is ``on_tissue_at_rest``."""
+    model = grid_with_a_hole()
+    points = np.concatenate([at(1.8, 2.5), at(2.5, 2.5), at(0.9, 0.9)])
+    nodes = np.flatnonzero(model.active)
+    over, clear = tissue_and_edge(model, points, nodes, 0.4 * MM)
+    assert over.tolist() == [True, False, True]
+    assert clear.tolist() == [False, True, True]
+    assert (over & clear).tolist() == on_tissue_at_rest(model, points, nodes, 0.4 * MM).tolist()
+
+
+@pytest.mark.parametrize("over, clear, expected", [
+    ("0110", "0000", "0110"),            # over the tissue between two openings, nowhere clear: a neck
+    ("0110", "0010", "0000"),            # a sample clear of the borders: an ordinary run
+    ("1100", "0000", "0000"),            # from the piece's start: not between two openings
+    ("0011", "0000", "0000"),            # to its end (the tip): not between two openings
+    ("011011100", "000000000", "011011100"),  # two necks
+    ("010111010", "000010000", "010000010"),  # a neck, a run with a clear sample, a neck
+])
+def test_a_neck_is_a_run_over_the_tissue_between_openings_nowhere_clear_of_a_border(over, clear, expected):
+    def mask(text):
+        return np.array([c == "1" for c in text])
+    assert necks(mask(over), mask(clear)).tolist() == mask(expected).tolist()

@@ -48,12 +48,12 @@ from .incision import Incision
 from .islands import islands_from, piece_nodes, scraps_from
 from .material_point import MaterialPoint
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
-from .piece import Piece, piece_to_cut
+from .piece import Piece, piece_to_cut, without_necks
 from .remesh import PieceCut, SlitDoesNotFit, cut_piece
 from .settings import CutSettings
 from .surface import Crossing
 from .tissue_at_rest import joined_start, rest_point_on_tissue
-from .tolerances import MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
+from .tolerances import EXIT_ADVANCE, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
 from .topology import NodePositions, TopologyEditor
 from .wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
@@ -171,7 +171,7 @@ class Cutter:
         x = self._positions_view(sim)
         nodes, _, corners = self.contact.skin_near(sim, poses[-1], x)
         found = self.contact.last_crossing(poses, x[nodes], self.model.points[nodes], corners)
-        point = None if found is None else self._point_ahead(sim, *found)
+        point = None if found is None else self._point_ahead(sim, *found, least=EXIT_ADVANCE)
         if point is not None:
             self._extend_path(point, found[0])
 
@@ -303,13 +303,14 @@ class Cutter:
         t2 = time.perf_counter()
         self._cut(sim, inc, tool, inc.length - self._behind_the_blade(inc, tool), (t0, t1, t2))
 
-    def _point_ahead(self, sim: CutHost, crossing: Crossing, tool: Tool | None) -> MaterialPoint | None:
+    def _point_ahead(self, sim: CutHost, crossing: Crossing, tool: Tool | None,
+                     least: float = MIN_ADVANCE) -> MaterialPoint | None:
         """The material point of the blade's ``crossing`` if the current incision goes on to it;
         None (wait) over an opening, when the blade has not moved on enough, or when it is back
         over what is cut. A lowered tool's incision turns back here first (``turn_back``)."""
         inc = self.current
         point = self.contact.material(sim, self._positions_view(sim), crossing, tool)
-        if point is None or np.linalg.norm(point.rest - inc.path[-1]) < MIN_ADVANCE * self.spacing:
+        if point is None or np.linalg.norm(point.rest - inc.path[-1]) < least * self.spacing:
             return None  # over an opening, or the blade has not moved on enough: wait
         if inc.turns_back(point.rest):  # a tool lowered with its axis tilted, now travelling
             inc.turn_back()
@@ -397,16 +398,28 @@ class Cutter:
     def _cut_piece(self, inc: Incision, piece: Piece, positions: NodePositions, tool: Tool | None) -> PieceCut | None:
         """Stages 1 and 3 on ``piece`` (``remesh.cut_piece``, in the edit begun); None if its slit
         does not fit (counted in ``skipped`` by the reason)."""
+        try:
+            return self._remesh(inc, piece, positions, tool)
+        except SlitDoesNotFit as why:
+            self.totals["skipped_events"] += 1
+            self.skipped[str(why)] = self.skipped.get(str(why), 0) + 1
+            if not (piece.on_tissue & ~piece.necks).any():
+                inc.cut_point = piece.points[-1].copy()  # only a strip beside an opening or a neck: it does not fit
+            return None
+
+    def _remesh(self, inc: Incision, piece: Piece, positions: NodePositions, tool: Tool | None) -> PieceCut:
+        """``remesh.cut_piece`` on ``piece``; where its slit does not fit and the piece crosses a
+        neck of tissue, once more with the neck left as it was (``piece.without_necks``)."""
         first = not inc.station_u and inc.tip_node < 0
         try:
             return cut_piece(self.editor, inc, piece.u, piece.on_tissue, piece.near, positions, tool=tool,
                              first=first, beside=piece.beside)
-        except SlitDoesNotFit as why:
-            self.totals["skipped_events"] += 1
-            self.skipped[str(why)] = self.skipped.get(str(why), 0) + 1
-            if not piece.on_tissue.any():
-                inc.cut_point = piece.points[-1].copy()  # only a strip beside an opening, which does not fit
-            return None
+        except SlitDoesNotFit:
+            if not piece.necks.any():
+                raise
+        piece = without_necks(self.model, inc, piece)
+        return cut_piece(self.editor, inc, piece.u, piece.on_tissue, piece.near, positions, tool=tool,
+                         first=first, beside=piece.beside)
 
     def _finish_edit(self, inc: Incision, piece: Piece, cut: PieceCut, positions: NodePositions, final: bool):
         """After the re-mesh: the cut point moves to the piece's end, the springs the piece

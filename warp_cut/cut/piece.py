@@ -3,7 +3,10 @@
 An event cuts from the incision's last cut to arc length ``upto`` (the blade's crossing, less
 what stays behind it): that piece is sampled every tenth of a spacing, each sample judged on
 the tissue or over an opening (``tissue_at_rest.on_tissue_at_rest``) and beside one
-(``beside.beside_opening``). The event waits (the next one, a longer piece, tries again) while
+(``beside.beside_opening``). A neck of tissue between two openings, too narrow for any sample
+to lie clear of its borders, is cut through (``tissue_at_rest.necks``; where the fill cannot
+do that, ``without_necks`` leaves it as it was). The event waits (the next one, a longer
+piece, tries again) while
 
 * the blade's travel has not yet kept or undone a start joined to an earlier wound;
 * the piece is shorter than ``MIN_ADVANCE`` spacings;
@@ -26,23 +29,34 @@ from .beside import Beside, beside_opening
 from .event_band import clearance, edge_clearance
 from .incision import Incision
 from .slit_band import samples_to_cut
-from .tissue_at_rest import on_tissue_at_rest
+from .tissue_at_rest import necks, tissue_and_edge
 from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE
 
-__all__ = ["Piece", "piece_to_cut"]
+__all__ = ["Piece", "piece_to_cut", "without_necks"]
 
 
 @dataclass
 class Piece:
     """The samples of one event's piece of rest curve: arc lengths ``u`` (k,) [m], rest
     ``points`` (k, 3) [m], which lie ``on_tissue`` (k,) bool, those ``beside`` an opening
-    (``beside.Beside``), and the live nodes ``near`` it (node slots)."""
+    (``beside.Beside``), and the live nodes ``near`` it (node slots); ``necks`` (k,) bool: the
+    samples across a neck of tissue between two openings (``tissue_at_rest.necks``), counted
+    in ``on_tissue``."""
 
     u: np.ndarray
     points: np.ndarray
     on_tissue: np.ndarray
     beside: Beside
     near: np.ndarray
+    necks: np.ndarray
+
+
+def without_necks(model, inc: Incision, piece: Piece) -> Piece:
+    """``piece`` with its necks left uncut: over an opening, and beside one where a border lies
+    across the curve (``beside.beside_opening``)."""
+    on_tissue = piece.on_tissue & ~piece.necks
+    beside = beside_opening(model, inc, piece.u, on_tissue, piece.near, edge_clearance(inc))
+    return Piece(piece.u, piece.points, on_tissue, beside, piece.near, np.zeros_like(piece.necks))
 
 
 def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: float, final: bool) -> Piece | None:
@@ -65,16 +79,33 @@ def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: floa
     u = np.linspace(u_from, upto, max(9, int(np.ceil((upto - u_from) / (0.1 * s))) + 1))
     points = inc.point_at(u)
     near = nodes_near(points[0], points[-1], clearance(inc) + 3.0 * s + 0.5 * (upto - u_from))
-    on_tissue = on_tissue_at_rest(model, points, near, edge_clearance(inc), inc.slit_nodes)
+    over, clear = tissue_and_edge(model, points, near, edge_clearance(inc), inc.slit_nodes)
+    on_tissue = over & clear
     if tool is not None and not on_tissue[-1]:
         return None  # the tip would lie in an opening: wait till the blade is through it
+    crossed = necks(over, clear)
+    on_tissue |= crossed
     if not final:  # a run past an opening waits until it can hold a lip pair
         keep = samples_to_cut(u, on_tissue, (FIRST_STATION + LAST_STATION) * s)
         if keep == 0:
             return None
-        u, points, on_tissue = u[:keep], points[:keep], on_tissue[:keep]
+        u, points, on_tissue, crossed, over = u[:keep], points[:keep], on_tissue[:keep], crossed[:keep], over[:keep]
     beside = beside_opening(model, inc, u, on_tissue, near, edge_clearance(inc))
-    if not (on_tissue | beside.mask).any():
-        inc.cut_point = points[-1].copy()  # all of it over an opening: nothing to cut
+    if not (on_tissue | beside.mask).any():  # all of it over an opening or at its edge: nothing to cut
+        stop = _last_over_an_opening(over)
+        if stop is not None:
+            inc.cut_point = points[stop].copy()
         return None
-    return Piece(u, points, on_tissue, beside, near)
+    return Piece(u, points, on_tissue, beside, near, crossed)
+
+
+def _last_over_an_opening(over: np.ndarray) -> int | None:
+    """Where the cut point moves on to in a piece with nothing to cut (``over`` (k,) bool: its
+    samples over the tissue): its last sample over an opening before the tissue it ends on (the
+    next piece then holds the whole of that tissue, and sees a neck it crosses:
+    ``tissue_at_rest.necks``), its last if it ends over an opening; None (it stays) if the
+    piece lies all over the tissue."""
+    if not over[-1]:
+        return len(over) - 1
+    gaps = np.flatnonzero(~over)
+    return int(gaps[-1]) if len(gaps) else None

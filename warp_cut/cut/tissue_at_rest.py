@@ -13,8 +13,10 @@ from ..sim.model import TissueModel
 from .chart import RegionChart, barycentric
 from .incision import Incision
 from .region import border_edges, distance_to_segments
+from .slit_band import runs_of
 
-__all__ = ["on_tissue_at_rest", "rest_point_on_tissue", "joined_start", "tissue_near", "on_triangles"]
+__all__ = ["on_tissue_at_rest", "tissue_and_edge", "necks", "rest_point_on_tissue", "joined_start", "tissue_near",
+           "on_triangles"]
 
 
 def tissue_near(model: TissueModel, nodes: np.ndarray, own=frozenset()):
@@ -38,11 +40,32 @@ def on_tissue_at_rest(model: TissueModel, points: np.ndarray, nodes: np.ndarray,
     ``nodes`` (within a hundredth of its size) and farther than ``edge`` [m] from the tissue's
     borders (but those of the slit of nodes ``own``: an incision's own): in the tissue, not in
     an opening nor at its edge."""
+    over, clear = tissue_and_edge(model, points, nodes, edge, own)
+    return over & clear
+
+
+def tissue_and_edge(model: TissueModel, points: np.ndarray, nodes: np.ndarray, edge: float,
+                    own=frozenset()) -> tuple[np.ndarray, np.ndarray]:
+    """Masks (k,) of the rest points (k, 3) [m] over a live triangle at ``nodes`` and of those
+    farther than ``edge`` [m] from the tissue's borders (but those of the slit of nodes
+    ``own``); their and is ``on_tissue_at_rest``."""
     chart, rest, ends = tissue_near(model, nodes, own)
     if chart is None:
-        return np.zeros(len(points), dtype=bool)
+        return np.zeros(len(points), dtype=bool), np.zeros(len(points), dtype=bool)
     away = distance_to_segments(points, ends[:, 0], ends[:, 1]) > edge
-    return on_triangles(chart, rest, points) & away
+    return on_triangles(chart, rest, points), away
+
+
+def necks(over: np.ndarray, clear: np.ndarray) -> np.ndarray:
+    """Mask (k,) of a piece's samples across a neck of tissue between two openings: a run of
+    samples over the tissue (``over`` (k,) bool) none of which lies clear of its borders
+    (``clear`` (k,) bool), with a sample over no tissue on either side. The blade passes
+    through such a neck, narrower along the curve than twice the edge clearance, and cuts it."""
+    out = np.zeros(len(over), dtype=bool)
+    for first, last in runs_of(np.asarray(over, dtype=bool)):
+        if first > 0 and last < len(over) - 1 and not np.any(clear[first:last + 1]):
+            out[first:last + 1] = True
+    return out
 
 
 def on_triangles(chart: RegionChart, rest: np.ndarray, points: np.ndarray) -> np.ndarray:

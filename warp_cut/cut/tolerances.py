@@ -25,6 +25,10 @@ MIN_ADVANCE = 0.25
 """Least advance of the blade along the rest curve [x s] that extends an incision (less waits
 for the next event: a re-mesh for nothing)."""
 
+EXIT_ADVANCE = 0.02
+"""Least advance [x s] of the blade's last crossing before it left the skin past the incision's
+path that still carries the path on to it (the incision then reaches where the blade left;
+``MIN_ADVANCE`` holds only for the events while the blade is in)."""
 FIRST_STATION = 0.65
 """Distance [x s] of a slit's first station from its start (or from the border of an opening it
 went on from). The wedge between a slit's end and its nearest lip pair is bridged by one long
