@@ -101,6 +101,19 @@ def test_tissue_and_edge_split_on_tissue_into_over_a_triangle_and_clear_of_a_bor
     ("010111010", "000010000", "010000010"),  # a neck, a run with a clear sample, a neck
 ])
 def test_a_neck_is_a_run_over_the_tissue_between_openings_nowhere_clear_of_a_border(over, clear, expected):
+    """Samples 0.1 mm apart; no run longer than 1 mm here."""
     def mask(text):
         return np.array([c == "1" for c in text])
-    assert necks(mask(over), mask(clear)).tolist() == mask(expected).tolist()
+    u = 1e-4 * np.arange(len(over))
+    assert necks(u, mask(over), mask(clear), 1e-3).tolist() == mask(expected).tolist()
+
+
+@pytest.mark.parametrize("length_mm, is_neck", [(0.8, True), (1.0, True), (1.2, False)])
+def test_a_run_longer_than_a_neck_runs_beside_a_border_and_is_no_neck(length_mm, is_neck):
+    """A run over the tissue nowhere clear of a border, between two openings, is a neck up to
+    ``longest`` (1 mm) along the curve; longer, it runs beside a border (a recut wandering off
+    its wound), and is none."""
+    u = np.linspace(0.0, length_mm * MM + 2e-4, 25)
+    over = (u > 1e-4 - 1e-12) & (u < length_mm * MM + 1e-4 + 1e-12)
+    found = necks(u, over, np.zeros(len(u), dtype=bool), 1.0 * MM)
+    assert found.tolist() == (over if is_neck else np.zeros(len(u), dtype=bool)).tolist()

@@ -30,7 +30,7 @@ from .event_band import clearance, edge_clearance
 from .incision import Incision
 from .slit_band import samples_to_cut
 from .tissue_at_rest import necks, tissue_and_edge
-from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE
+from .tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE, NECK_REACH
 
 __all__ = ["Piece", "piece_to_cut", "without_necks"]
 
@@ -83,7 +83,7 @@ def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: floa
     on_tissue = over & clear
     if tool is not None and not on_tissue[-1]:
         return None  # the tip would lie in an opening: wait till the blade is through it
-    crossed = necks(over, clear)
+    crossed = necks(u, over, clear, NECK_REACH * edge_clearance(inc))
     on_tissue |= crossed
     if not final:  # a run past an opening waits until it can hold a lip pair
         keep = samples_to_cut(u, on_tissue, (FIRST_STATION + LAST_STATION) * s)

@@ -56,14 +56,17 @@ def tissue_and_edge(model: TissueModel, points: np.ndarray, nodes: np.ndarray, e
     return on_triangles(chart, rest, points), away
 
 
-def necks(over: np.ndarray, clear: np.ndarray) -> np.ndarray:
-    """Mask (k,) of a piece's samples across a neck of tissue between two openings: a run of
-    samples over the tissue (``over`` (k,) bool) none of which lies clear of its borders
-    (``clear`` (k,) bool), with a sample over no tissue on either side. The blade passes
-    through such a neck, narrower along the curve than twice the edge clearance, and cuts it."""
+def necks(u: np.ndarray, over: np.ndarray, clear: np.ndarray, longest: float) -> np.ndarray:
+    """Mask (k,) of a piece's samples at arc lengths ``u`` (k,) [m] across a neck of tissue
+    between two openings: a run of samples over the tissue (``over`` (k,) bool) none of which
+    lies clear of its borders (``clear`` (k,) bool), with a sample over no tissue on either
+    side, no longer than ``longest`` [m] along the curve. The blade passes through such a neck
+    and cuts it. A longer run runs beside a border rather than across a neck (a recut
+    wandering off its wound's line), where nothing new is cut."""
     out = np.zeros(len(over), dtype=bool)
     for first, last in runs_of(np.asarray(over, dtype=bool)):
-        if first > 0 and last < len(over) - 1 and not np.any(clear[first:last + 1]):
+        between = first > 0 and last < len(over) - 1
+        if between and u[last] - u[first] <= longest and not np.any(clear[first:last + 1]):
             out[first:last + 1] = True
     return out
 

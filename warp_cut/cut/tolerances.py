@@ -105,6 +105,12 @@ the cut trimmed off, not a piece of skin (``islands.scraps_from``)."""
 SCRAP_TRIANGLES = 6
 """A piece is searched as a scrap up to this many triangles (a larger one is not a scrap)."""
 
+NECK_REACH = 4.0
+"""Longest run of curve [x the edge clearance, lip offset + ``CLEARANCE`` s] over the tissue but
+nowhere clear of its borders, between two openings, that the blade cuts through as a neck
+(``tissue_at_rest.necks``): a neck narrower than twice the edge clearance crossed at 30 deg or
+more to its sides. A longer one runs beside a border (a recut wandering off its wound's line),
+and no strip is cut there (``beside``)."""
 BESIDE_RUN = 1.0
 """Least length [x s] of curve running beside an opening (``beside``: a border across the curve
 nearer than the edge clearance) whose strip of tissue the blade cuts off. Shorter runs are where
