@@ -116,7 +116,9 @@ def write_forearm_t() -> None:
     text = f'''# A T round a forearm-like cylinder of radius 3 cm: a 24 mm cut across the arm, then a 14 mm
 # stem from its middle along the arm, which starts in the first wound and joins it.
 # Made by examples/make_multi_stroke_scenes.py (the mesh is meshes/forearm.obj). Table 1
-# material, border pinned, the skin on its support (physics.foundation, see docs/wound.md).
+# material, border pinned, the skin on its support (physics.foundation, see docs/wound.md) and
+# resisting bending (physics.bending): a membrane keeps two of the cut's triangles folded over
+# once the tool has gone, the bending skin none.
 name = "forearm_t_incision"
 duration = {_duration(strokes, 0.5)}
 fps = 60
@@ -129,6 +131,7 @@ pinned = "border"
 [physics]
 cutting = true
 foundation = true
+bending = true
 '''
     _save("forearm_t_incision", text, tool, strokes)
 
