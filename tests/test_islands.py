@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from warp_cut import TissueModel
-from warp_cut.cut.islands import islands_from, scraps_from
+from warp_cut.cut.islands import FreedPieces, islands_from, scraps_from
 from warp_cut.cut.topology import TopologyEditor
 
 
@@ -183,3 +183,39 @@ def test_a_small_piece_held_by_one_node_or_dead_is_no_scrap():
     editor.delete_triangles(parts[1])
     editor.finish()
     assert scraps_from(model, parts[1], 10 * MM2, 6) == []
+
+
+def test_freed_pieces_remove_a_scrap_unless_it_holds_a_kept_node_and_then_later():
+    """A 2-triangle scrap (1 mm^2) beside the sheet: while it holds a node of ``keep`` it waits
+    (nothing removed), and the next call removes it from the waiting ones even with no seed;
+    its four nodes go, the sheet stays whole."""
+    model, parts = sheet_with_pieces([2])
+    editor = TopologyEditor(model)
+    freed = FreedPieces(editor, 1.5 * MM2, 6, keep_islands=False)
+    scrap_nodes = set(model.triangle_table.column("corners")[parts[1]].ravel().tolist())
+    editor.begin()
+    assert freed.remove_scraps({parts[1][0]}, keep={min(scrap_nodes)}) == 0
+    assert freed.waiting == set(parts[1])
+    assert freed.remove_scraps(set(), keep=set()) == 1
+    editor.finish()
+    assert not model.active[sorted(scrap_nodes)].any()
+    assert model.active.sum() == 64 and model.triangle_count == len(parts[0])
+
+
+@pytest.mark.parametrize("keep_islands, met_border, removed", [(False, True, 1), (True, True, 0), (False, False, 0)])
+def test_freed_pieces_remove_the_islands_an_edit_cut_free_when_its_slit_met_an_opening(keep_islands, met_border,
+                                                                                        removed):
+    """A 3 x 3 node piece (8 triangles, 4 mm^2: no scrap below 1.5 mm^2) apart from the sheet,
+    one triangle of each made again in the edit (a slit's two sides): the piece is an island,
+    removed if the slit met an opening and the settings do not keep islands."""
+    model, parts = sheet_with_pieces([3])
+    editor = TopologyEditor(model)
+    freed = FreedPieces(editor, 1.5 * MM2, 6, keep_islands=keep_islands)
+    remade = [parts[0][0], parts[1][0]]
+    corners = model.triangle_table.column("corners")[remade].copy()
+    editor.begin()
+    editor.delete_triangles(remade)
+    editor.add_triangles(corners, model.points)
+    assert freed.after_edit(met_border, keep=set()) == (0, removed)
+    editor.finish()
+    assert model.triangle_count == len(parts[0]) + (0 if removed else 8)

@@ -45,7 +45,7 @@ from .events import EventClock
 from .flips import flip_to_delaunay
 from .host import CutHost
 from .incision import Incision
-from .islands import islands_from, piece_nodes, scraps_from
+from .islands import FreedPieces
 from .material_point import MaterialPoint
 from .measures import gap_profile, incision_width, lip_deviation, path_coverage
 from .piece import Piece, piece_to_cut, without_necks
@@ -114,9 +114,9 @@ class Cutter:
         self.totals = dict.fromkeys(_TOTALS, 0)
         self.new_triangles: set[int] = set()
         """Live triangles the cut made (slots)."""
-        self._waiting_scraps: set[int] = set()
-        """Triangles (slots) of scraps left while they hold the newest lip pair of the incision
-        being cut (its next event closes onto it); removed by a later event or at its end."""
+        self.freed = FreedPieces(self.editor, SCRAP_AREA * self.spacing**2, SCRAP_TRIANGLES, self.settings.keep_islands)
+        """Removes the scraps and islands an edit leaves (a scrap holding the newest lip pair of
+        the incision being cut waits: its next event closes onto it)."""
         self.skipped: dict[str, int] = {}
         """Why events were left for the next one (the slit did not fit its region): reason -> count."""
         self._loops_before = border_loop_count(model.triangles)
@@ -257,7 +257,8 @@ class Cutter:
                 break
         self.editor.begin()
         settle_pending_links(self.editor, inc, reach=np.inf)
-        scraps = self._remove_scraps(set(), keep=set())  # no event closes onto them now
+        scraps = self.freed.remove_scraps(set(), keep=set())  # no event closes onto them now
+        self.totals["removed_scraps"] += scraps
         flips = self._settle_prestressed(sim)
         if not (self.editor.report.residual_links or flips or scraps or self.editor.policy.prestressed):
             return
@@ -454,37 +455,14 @@ class Cutter:
     def _free_islands(self, cut: PieceCut, keep: set[int]) -> None:
         """Remove the scraps this event trimmed off (but those holding a node of ``keep``) and
         the pieces of skin it cut free (unless the settings keep them)."""
-        editor = self.editor
-        near = set(editor.report.new_triangles).union(*(editor.node_triangles[v] for v in editor.touched_nodes))
-        self._remove_scraps(near, keep)
-        if not cut.met_border or self.settings.keep_islands:
-            return
-        for island in islands_from(self.model, editor.report.new_triangles):
-            self._remove_piece(island)
-            self.totals["removed_islands"] += 1
-
-    def _remove_scraps(self, seeds: set[int], keep: set[int]) -> int:
-        """Remove the scraps (``SCRAP_AREA``) the triangle slots ``seeds`` or the waiting ones
-        belong to; one holding a node of ``keep`` waits. Returns the scraps removed."""
-        seeds, self._waiting_scraps = seeds | self._waiting_scraps, set()
-        removed = 0
-        for scrap in scraps_from(self.model, seeds, SCRAP_AREA * self.spacing**2, SCRAP_TRIANGLES):
-            if keep & set(piece_nodes(self.model, scrap).tolist()):
-                self._waiting_scraps |= scrap
-                continue
-            self._remove_piece(scrap)
-            removed += 1
-        self.totals["removed_scraps"] += removed
-        return removed
+        scraps, islands = self.freed.after_edit(cut.met_border, keep)
+        self.totals["removed_scraps"] += scraps
+        self.totals["removed_islands"] += islands
 
     def _newest_lips(self, inc: Incision) -> set[int]:
         """The two lip nodes of ``inc``'s newest lip pair (none if it has none)."""
         k = inc.last_pair(self.model.active)
         return {inc.left[k], inc.right[k]} if k >= 0 else set()
-
-    def _remove_piece(self, triangles: set[int]) -> None:
-        """Delete the nodes (and so the springs and triangles) of the triangle slots ``triangles``."""
-        self.editor.delete_nodes(piece_nodes(self.model, triangles).tolist())
 
     def _count(self, report, cut: PieceCut) -> None:
         tot = self.totals

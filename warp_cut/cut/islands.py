@@ -1,5 +1,5 @@
 """Pieces of skin a cut frees: an excision's island, found after the edit that closes it, and
-the scraps an edit trims off.
+the scraps an edit trims off; ``FreedPieces`` removes them within the edit.
 
 When a slit runs into an opening (an earlier wound, the tissue's edge), the piece of tissue it
 bounds may come free. The triangles joined through shared edges to those the edit made are
@@ -17,7 +17,7 @@ import numpy as np
 
 from ..mesh.geometry import corner_areas
 
-__all__ = ["islands_from", "scraps_from", "piece_nodes"]
+__all__ = ["FreedPieces", "islands_from", "scraps_from", "piece_nodes"]
 
 
 def _neighbours(model, t: int) -> set[int]:
@@ -118,3 +118,50 @@ def scraps_from(model, seeds, max_area: float, max_triangles: int) -> list[set[i
 def _rest_area(model, triangles: set[int]) -> float:
     """Rest area [m^2] of the triangle slots ``triangles``."""
     return float(corner_areas(model.points[_corners(model, triangles)]).sum())
+
+
+class FreedPieces:
+    """Removes, within an edit of ``editor`` (a ``TopologyEditor``), what the edit left apart
+    from the tissue: its scraps (``scraps_from``: rest area below ``scrap_area`` [m^2], at most
+    ``scrap_triangles`` triangles), whatever the settings say, and the islands a slit meeting
+    an opening cut free (``islands_from``), unless ``keep_islands``. A scrap holding a node of
+    ``keep`` (the incision's newest lip pair, which its next event closes onto) waits for a
+    later edit."""
+
+    def __init__(self, editor, scrap_area: float, scrap_triangles: int, keep_islands: bool):
+        self.editor = editor
+        self.scrap_area, self.scrap_triangles = float(scrap_area), int(scrap_triangles)
+        self.keep_islands = bool(keep_islands)
+        self.waiting: set[int] = set()
+        """Triangles (slots) of the scraps that wait."""
+
+    def after_edit(self, met_border: bool, keep: set[int]) -> tuple[int, int]:
+        """Remove the scraps near what the edit made or touched (and the waiting ones), and, if
+        its slit ``met_border`` (an opening), the islands it cut free. Returns (scraps, islands)
+        removed."""
+        editor = self.editor
+        near = set(editor.report.new_triangles).union(*(editor.node_triangles[v] for v in editor.touched_nodes))
+        scraps = self.remove_scraps(near, keep)
+        if not met_border or self.keep_islands:
+            return scraps, 0
+        islands = islands_from(editor.model, editor.report.new_triangles)
+        for island in islands:
+            self._remove(island)
+        return scraps, len(islands)
+
+    def remove_scraps(self, seeds: set[int], keep: set[int]) -> int:
+        """Remove the scraps the triangle slots ``seeds`` or the waiting ones belong to; one
+        holding a node of ``keep`` waits. Returns the scraps removed."""
+        seeds, self.waiting = seeds | self.waiting, set()
+        removed = 0
+        for scrap in scraps_from(self.editor.model, seeds, self.scrap_area, self.scrap_triangles):
+            if keep & set(piece_nodes(self.editor.model, scrap).tolist()):
+                self.waiting |= scrap
+                continue
+            self._remove(scrap)
+            removed += 1
+        return removed
+
+    def _remove(self, triangles: set[int]) -> None:
+        """Delete the nodes (and so the springs and triangles) of the triangle slots ``triangles``."""
+        self.editor.delete_nodes(piece_nodes(self.editor.model, triangles).tolist())
