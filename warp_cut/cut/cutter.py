@@ -412,15 +412,17 @@ class Cutter:
         """``remesh.cut_piece`` on ``piece``; where its slit does not fit and the piece crosses a
         neck of tissue, once more with the neck left as it was (``piece.without_necks``)."""
         first = not inc.station_u and inc.tip_node < 0
+
+        def cut(p: Piece) -> PieceCut:
+            return cut_piece(self.editor, inc, p.u, p.on_tissue, p.near, positions, tool=tool, first=first,
+                             beside=p.beside)
+
         try:
-            return cut_piece(self.editor, inc, piece.u, piece.on_tissue, piece.near, positions, tool=tool,
-                             first=first, beside=piece.beside)
+            return cut(piece)
         except SlitDoesNotFit:
             if not piece.necks.any():
                 raise
-        piece = without_necks(self.model, inc, piece)
-        return cut_piece(self.editor, inc, piece.u, piece.on_tissue, piece.near, positions, tool=tool,
-                         first=first, beside=piece.beside)
+        return cut(without_necks(self.model, inc, piece))
 
     def _finish_edit(self, inc: Incision, piece: Piece, cut: PieceCut, positions: NodePositions, final: bool):
         """After the re-mesh: the cut point moves to the piece's end, the springs the piece

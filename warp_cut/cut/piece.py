@@ -79,18 +79,19 @@ def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: floa
     u = np.linspace(u_from, upto, max(9, int(np.ceil((upto - u_from) / (0.1 * s))) + 1))
     points = inc.point_at(u)
     near = nodes_near(points[0], points[-1], clearance(inc) + 3.0 * s + 0.5 * (upto - u_from))
-    over, clear = tissue_and_edge(model, points, near, edge_clearance(inc), inc.slit_nodes)
+    edge = edge_clearance(inc)
+    over, clear = tissue_and_edge(model, points, near, edge, inc.slit_nodes)
     on_tissue = over & clear
     if tool is not None and not on_tissue[-1]:
         return None  # the tip would lie in an opening: wait till the blade is through it
-    crossed = necks(u, over, clear, NECK_REACH * edge_clearance(inc))
+    crossed = necks(u, over, clear, NECK_REACH * edge)
     on_tissue |= crossed
     if not final:  # a run past an opening waits until it can hold a lip pair
         keep = samples_to_cut(u, on_tissue, (FIRST_STATION + LAST_STATION) * s)
         if keep == 0:
             return None
         u, points, on_tissue, crossed, over = u[:keep], points[:keep], on_tissue[:keep], crossed[:keep], over[:keep]
-    beside = beside_opening(model, inc, u, on_tissue, near, edge_clearance(inc))
+    beside = beside_opening(model, inc, u, on_tissue, near, edge)
     if not (on_tissue | beside.mask).any():  # all of it over an opening or at its edge: nothing to cut
         stop = _last_over_an_opening(over)
         if stop is not None:
@@ -101,11 +102,9 @@ def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: floa
 
 def _last_over_an_opening(over: np.ndarray) -> int | None:
     """Where the cut point moves on to in a piece with nothing to cut (``over`` (k,) bool: its
-    samples over the tissue): its last sample over an opening before the tissue it ends on (the
-    next piece then holds the whole of that tissue, and sees a neck it crosses:
-    ``tissue_at_rest.necks``), its last if it ends over an opening; None (it stays) if the
-    piece lies all over the tissue."""
-    if not over[-1]:
-        return len(over) - 1
+    samples over the tissue): its last sample over an opening (its last if it ends over one;
+    else the one before the tissue it ends on, so the next piece holds the whole of that tissue
+    and sees a neck it crosses: ``tissue_at_rest.necks``); None (it stays) if the piece lies
+    all over the tissue."""
     gaps = np.flatnonzero(~over)
     return int(gaps[-1]) if len(gaps) else None

@@ -29,6 +29,7 @@ EXIT_ADVANCE = 0.02
 """Least advance [x s] of the blade's last crossing before it left the skin past the incision's
 path that still carries the path on to it (the incision then reaches where the blade left;
 ``MIN_ADVANCE`` holds only for the events while the blade is in)."""
+
 FIRST_STATION = 0.65
 """Distance [x s] of a slit's first station from its start (or from the border of an opening it
 went on from). The wedge between a slit's end and its nearest lip pair is bridged by one long
@@ -111,6 +112,7 @@ nowhere clear of its borders, between two openings, that the blade cuts through 
 (``tissue_at_rest.necks``): a neck narrower than twice the edge clearance crossed at 30 deg or
 more to its sides. A longer one runs beside a border (a recut wandering off its wound's line),
 and no strip is cut there (``beside``)."""
+
 BESIDE_RUN = 1.0
 """Least length [x s] of curve running beside an opening (``beside``: a border across the curve
 nearer than the edge clearance) whose strip of tissue the blade cuts off. Shorter runs are where
