@@ -16,6 +16,7 @@ from test_cutting import assert_open_slit
 from warp_cut.cut.classes import NodeClass
 from warp_cut.cut.incision import polyline_distance
 from warp_cut.cut.tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE
+from warp_cut.mesh.geometry import triangle_normals
 from warp_cut.runner import run_scene
 from warp_cut.scene import load_scene
 
@@ -340,12 +341,6 @@ def test_a_run_cutting_in_the_background_makes_the_in_loop_incision():
 
 
 # ------------------------------------------------------------------ the skin settled after a multi-stroke cut
-def unit_normals(x, triangles):
-    """Unit normals (t, 3) of the triangles (t, 3) on positions x (n, 3)."""
-    n = np.cross(x[triangles[:, 1]] - x[triangles[:, 0]], x[triangles[:, 2]] - x[triangles[:, 0]])
-    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-
-
 def test_the_forearm_t_leaves_no_triangle_folded_over_once_the_skin_has_settled():
     """The bundled T round the forearm ends 0.5 s after the tool has gone: no triangle then
     faces against its rest shape (current normal against rest normal; as a membrane, without
@@ -358,6 +353,6 @@ def test_the_forearm_t_leaves_no_triangle_folded_over_once_the_skin_has_settled(
     assert m["finite"] and m["mesh"]["valid"], m["mesh"]["problems"]
     assert m["cut"]["incisions"] == 2 and m["cut"]["unfilled_holes"] == 0, m["cut"]
     model = sim.model
-    now, rest = unit_normals(sim.positions, model.triangles), unit_normals(model.points, model.triangles)
+    now, rest = triangle_normals(sim.positions, model.triangles), triangle_normals(model.points, model.triangles)
     facing = np.einsum("ij,ij->i", now, rest)
     assert (facing > 0.0).all(), np.flatnonzero(facing <= 0.0)

@@ -1488,14 +1488,11 @@ def test_a_stroke_beside_an_earlier_wound_cuts_off_the_strip_between_them(offset
     assert_sound_rest_shape(sim.model, sim.cutter.live_new_triangles())
 
 
-def test_a_neck_of_tissue_between_two_openings_is_cut_through():
-    """A grid of 1 mm cells with two openings one cell apart (x 5-6 and 7-8 mm, y 5-6 mm) and a
-    straight cut across both along y = 5.6 mm, lip offset 0.25 mm: the neck between them (x 6-7
-    mm) is narrower than twice the edge clearance (0.55 mm), so no point of it lies clear of
-    its borders, yet the blade passes through it. It is cut through (``tissue_at_rest.necks``;
-    before, the cut point moved over it piece by piece and left it whole): no triangle lies
-    over the cut's line across the neck at rest, the mesh keeps every invariant after every
-    event, and the cut's triangles keep the smallest angle in the rest shape."""
+def cut_across_a_neck():
+    """(model, sim, mask (19,) of the points across the neck that lie over a live triangle at
+    rest) after a straight cut along y = 5.6 mm across two openings one cell apart (x 5-6 and
+    7-8 mm, y 5-6 mm) in a grid of 1 mm cells, lip offset 0.25 mm; the mesh checked after
+    every event."""
     model = grid_without({(5, 5), (5, 7)}, n=14)
     sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE,
                     cutting=CutSettings(spacing=1e-3, lip_offset=2.5e-4))
@@ -1503,7 +1500,18 @@ def test_a_neck_of_tissue_between_two_openings_is_cut_through():
     cut_along(sim, [[2e-3, y, 0.0], [11e-3, y, 0.0]], radius=1e-3, step=5e-4)
     across = np.column_stack([np.linspace(6.05e-3, 6.95e-3, 19), np.full(19, y), np.zeros(19)])
     chart, rest, _ = tissue_near(model, np.flatnonzero(model.active))
-    assert not on_triangles(chart, rest, across).any()
+    return model, sim, on_triangles(chart, rest, across)
+
+
+def test_a_neck_of_tissue_between_two_openings_is_cut_through():
+    """The cut of ``cut_across_a_neck``: the neck between the openings (x 6-7 mm) is narrower
+    than twice the edge clearance (0.55 mm), so no point of it lies clear of its borders, yet
+    the blade passes through it. It is cut through (``tissue_at_rest.necks``; before, the cut
+    point moved over it piece by piece and left it whole): no triangle lies over the cut's line
+    across the neck at rest, the mesh keeps every invariant after every event, and the cut's
+    triangles keep the smallest angle in the rest shape."""
+    model, sim, over_neck = cut_across_a_neck()
+    assert not over_neck.any()
     assert_sound_rest_shape(model, sim.cutter.live_new_triangles())
 
 
@@ -1526,13 +1534,7 @@ def test_a_neck_the_fill_cannot_cut_through_is_left_as_it_was(monkeypatch):
         return real(editor, inc, u, on_tissue, near, positions, **kw)
 
     monkeypatch.setattr(cutter_module, "cut_piece", refusing)
-    model = grid_without({(5, 5), (5, 7)}, n=14)
-    sim = Simulator(model, dt=1e-3, gravity=None, device=DEVICE,
-                    cutting=CutSettings(spacing=1e-3, lip_offset=2.5e-4))
-    y = 5.6e-3
-    cut_along(sim, [[2e-3, y, 0.0], [11e-3, y, 0.0]], radius=1e-3, step=5e-4)
+    _, sim, over_neck = cut_across_a_neck()
     assert any(tried)  # the neck was tried
     assert "a test refusing the neck" not in sim.cutter.skipped
-    across = np.column_stack([np.linspace(6.05e-3, 6.95e-3, 19), np.full(19, y), np.zeros(19)])
-    chart, rest, _ = tissue_near(model, np.flatnonzero(model.active))
-    assert on_triangles(chart, rest, across).all()
+    assert over_neck.all()
