@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh.geometry import corner_areas
+from ..sim.bending import mass_caps
 from ..sim.material_policy import material_policy
 from ..sim.model_change import ModelChange
 from .classes import NodeClass, SpringClass
@@ -386,8 +387,6 @@ class TopologyEditor:
             self.delete_nodes(fragments)
             self.report.removed_fragments.extend(fragments)
         self._refresh_membrane()
-        if model.material.bending_rigidity > 0:
-            self._refresh_hinges(model.points if positions is None else positions)
         touched = np.array(sorted(v for v in self._touched if model.active[v]), dtype=np.int64)
         if len(touched) and lumped:
             areal = model.material.density * model.material.thickness
@@ -395,6 +394,9 @@ class TopologyEditor:
             masses = np.array([areal * sum(areas[t] for t in self.node_triangles[v]) / 3.0
                                for v in touched])
             model.node_table.set("masses", touched, masses)
+        if model.material.bending_rigidity > 0:
+            self._refresh_hinges(model.points if positions is None else positions)
+            self._cap_hinges_at(touched)
         model.topology_version += 1
         return self.report
 
@@ -455,6 +457,21 @@ class TopologyEditor:
             for slot in model.add_hinges(np.array(fresh, dtype=np.int64), positions):  # indexed there
                 self.hinge_nodes_changed.update(int(v) for v in table.column("nodes")[slot])
                 self.report.new_hinges.append(int(slot))
+
+    def _cap_hinges_at(self, nodes: np.ndarray) -> None:
+        """Lower the caps of the hinges kept at ``nodes`` whose masses this edit made smaller
+        (``mass_caps``; the hinges it made got theirs with the new masses)."""
+        model = self.model
+        slots = np.array(self.index.hinges_at(nodes), dtype=np.int64) if len(nodes) else np.zeros(0, np.int64)
+        if not len(slots):
+            return
+        table = model.hinge_table
+        corners, caps = table.column("nodes")[slots], table.column("cap")[slots]
+        lowered = mass_caps(caps, corners, model.masses, model.bending_budget)
+        changed = lowered < caps
+        if changed.any():
+            table.set("cap", slots[changed], lowered[changed])
+            self.hinge_nodes_changed.update(int(v) for v in corners[changed].ravel())
 
     def _kill_hinge(self, slot: int) -> None:
         nodes = [int(v) for v in self.model.hinge_table.column("nodes")[slot]]

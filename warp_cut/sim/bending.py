@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["flexural_rigidity", "hinges_of", "dihedral_angles", "hinge_stiffness", "hinge_caps",
-           "bending_rows", "LATTICE_POISSON", "EQUILATERAL_RATE"]
+           "bending_rows", "hinge_rates", "mass_caps", "LATTICE_POISSON", "EQUILATERAL_RATE"]
 
 LATTICE_POISSON = 1.0 / 3.0
 """Poisson's ratio of a regular triangle lattice of equal springs (the in-plane model)."""
@@ -112,6 +112,33 @@ def hinge_caps(points, hinges: np.ndarray, rigidity: float) -> np.ndarray:
     edges = [(0, 1), (0, 2), (1, 2), (0, 3), (1, 3)]
     longest2 = np.max([np.einsum("ij,ij->i", x[j] - x[i], x[j] - x[i]) for i, j in edges], axis=0)
     return EQUILATERAL_RATE * rigidity / np.maximum(longest2, 1e-300)
+
+
+def hinge_rates(caps: np.ndarray, hinges: np.ndarray, masses: np.ndarray) -> np.ndarray:
+    """2 cap / m [1/s^2] (h,) of each hinge, m the least mass [kg] of its four nodes: the most a
+    hinge adds to the bending's rate B_i / m_i at any of its nodes (``bending_rows``)."""
+    return 2.0 * np.asarray(caps, dtype=np.float64) / np.maximum(_least_masses(hinges, masses), 1e-300)
+
+
+def _least_masses(hinges: np.ndarray, masses: np.ndarray) -> np.ndarray:
+    """The least mass [kg] (h,) of each hinge's four nodes."""
+    hinges = np.asarray(hinges, dtype=np.int64).reshape(-1, 4)
+    return np.min(np.asarray(masses, dtype=np.float64)[hinges], axis=1) if len(hinges) else np.zeros(0)
+
+
+def mass_caps(caps: np.ndarray, hinges: np.ndarray, masses: np.ndarray, budget: float) -> np.ndarray:
+    """``caps`` [N/m] (h,) lowered where a hinge would add more than ``budget`` [1/s^2] to the
+    bending's rate at one of its nodes (``hinge_rates``): cap <= budget m / 2, m the least mass
+    of its nodes.
+
+    The shape cap (``hinge_caps``) bounds a hinge by its triangles' longest edge, but a cut can
+    make small triangles with good angles (round a thin blade's slit, at its tip), and a node
+    on them has a small lumped mass: the rate of an explicit bending term grows as D / (m l^2),
+    as 1 / l^4, and one such node once set a step 100 times shorter than the uncut sheet's.
+    With the budget the rate of the sheet's own hinges (``TissueModel.bending_budget``), no
+    hinge a cut makes holds its nodes harder, for their mass, than the uncut sheet's did: a
+    small triangle bends more easily than the plate would, as a sliver does."""
+    return np.minimum(np.asarray(caps, dtype=np.float64), 0.5 * budget * _least_masses(hinges, masses))
 
 
 def bending_rows(node_count: int, hinges: np.ndarray, caps: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ import trimesh
 from ..errors import InputError
 from ..mesh.geometry import boundary_nodes, edges_of, triangle_areas
 from ..mesh.patch import skin_patch_mesh
-from .bending import dihedral_angles, hinge_caps, hinge_stiffness, hinges_of
+from .bending import dihedral_angles, hinge_caps, hinge_rates, hinge_stiffness, hinges_of, mass_caps
 from .material import Material
 from .prestress import prestressed_rest_lengths
 from .slots import SlotTable
@@ -106,8 +106,14 @@ class TissueModel:
             "nodes": np.zeros((0, 4), np.int64), "rest_angle": np.zeros(0),
             "stiffness": np.zeros(0), "cap": np.zeros(0)}, key="nodes")
         self.material = material
+        self.bending_budget = np.inf
+        """The most a hinge may add to the bending's rate B_i / m_i at a node [1/s^2]: that of
+        the sheet's own hinges, so hinges a cut makes hold no harder for their nodes' masses
+        (``warp_cut.sim.bending.mass_caps``; inf without bending)."""
         if material.bending_rigidity > 0:
-            self.add_hinges(hinges_of(triangles), points)
+            slots = self.add_hinges(hinges_of(triangles), points)
+            caps, nodes = self.hinge_table.column("cap")[slots], self.hinge_table.column("nodes")[slots]
+            self.bending_budget = float(hinge_rates(caps, nodes, self.masses).max()) if len(slots) else np.inf
         self.stiffness_model = "constant"
         """How springs made later (by a cut) get their stiffness: ``"constant"`` (the material's
         K) or ``"material"`` (van Gelder, from E, thickness and their triangles)."""
@@ -419,13 +425,15 @@ class TissueModel:
     def add_hinges(self, hinges, positions) -> np.ndarray:
         """Hinges (h, 4) [a, b, k, l] made at ``positions`` (node positions [m], anything an index
         array turns into (k, 3)): their angle there is their rest angle, their stiffness from the
-        material's bending rigidity and the triangles' shape there. Returns their slots (h,)."""
+        material's bending rigidity and the triangles' shape there, capped by their nodes' masses
+        (``mass_caps``, within ``bending_budget``). Returns their slots (h,)."""
         hinges = np.asarray(hinges, dtype=np.int64).reshape(-1, 4)
         x = positions
         rigidity = self.material.bending_rigidity
+        caps = mass_caps(hinge_caps(x, hinges, rigidity), hinges, self.masses, self.bending_budget)
         slots = self.hinge_table.append(
             nodes=hinges, rest_angle=dihedral_angles(x, hinges),
-            stiffness=hinge_stiffness(x, hinges, rigidity), cap=hinge_caps(x, hinges, rigidity))
+            stiffness=hinge_stiffness(x, hinges, rigidity), cap=caps)
         if self._index is not None:
             self._index.register_rows("hinge_table", slots)
         return slots
