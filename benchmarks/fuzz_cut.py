@@ -61,7 +61,9 @@ def reproducer(case: dict, strokes: int) -> str:
     if case.get("named"):
         return f"python benchmarks/fuzz_cut.py --named {case['named']}"
     quick = " --quick" if case.get("quick") else ""
-    return f"python benchmarks/fuzz_cut.py --case {case['seed']} --kind {case['kind']}{quick} --strokes {strokes}"
+    bending = " --bending" if BENDING_RIGIDITY > 0 else ""
+    return (f"python benchmarks/fuzz_cut.py --case {case['seed']} --kind {case['kind']}{quick} --strokes {strokes}"
+            f"{bending}")
 
 
 BENDING_RIGIDITY = 0.0
