@@ -63,7 +63,7 @@ END_TRIES = 4
 """Tries to cut an ended incision's slit to its end, each a quarter spacing shorter (a fill that
 does not lay the whole slit is refused: ``SlitDoesNotFit``)."""
 
-STAGES = ("locate", "stage2_bezier", "stage1_swept_band", "stage3_fill", "device_update")
+STAGES = ("locate", "stage2_bezier", "select_piece", "stage1_swept_band", "stage3_fill", "device_update")
 """Names of the timed parts of a cut event (latency in metrics.json)."""
 
 _TOTALS = ("deleted_nodes", "deleted_springs", "residual_links", "carried_links", "lost_links", "lip_nodes",
@@ -446,7 +446,7 @@ class Cutter:
         start, after locating, after the curve, before and after the re-mesh, after the links
         and islands, after mirroring the edit."""
         t0, t1, t2, t3, t4, t5, t6 = times
-        for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t4 - t3, t5 - t4, t6 - t5)):
+        for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, t6 - t5)):
             self.latency_ms[name].append(1e3 * dt)
 
     def _wound_links(self, inc: Incision, piece: np.ndarray, cut: PieceCut) -> None:
