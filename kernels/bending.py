@@ -8,6 +8,8 @@ k = min(k_h, cap / |g|^2) (``warp_cut.sim.bending.hinge_caps``). A hinge whose t
 
 import warp as wp
 
+from .chunks import chunk_start
+
 wp.set_module_options({"enable_backward": False})
 
 HINGE_MIN_AREA2 = 1.0e-30
@@ -30,7 +32,7 @@ def hinge_forces(
     hinge_indices: (4 * hinge_count,) int32 [a, b, k, l] per hinge, negative = deleted slot.
     hinge_rest_angle theta_0 [rad], hinge_stiffness k_h [N m], hinge_cap [N/m]: (hinge_count,).
     """
-    s = wp.tid() * chunk
+    s = chunk_start(wp.tid(), chunk)
     end = wp.min(s + chunk, count)
     while s < end:
         a = hinge_indices[4 * s]

@@ -128,27 +128,44 @@ def tool_reach2(p0: wp.vec3, p1: wp.vec3, radius: float):
 
 
 @wp.func
+def tool_sphere(tool_pose: wp.array(dtype=wp.vec3)):
+    """The sphere holding the tool in ``tool_pose`` (p0, p1, (radius, 0, 0)) as vec4: its centre
+    [m] and squared radius [m^2] (``tool_reach2``), -1 for no tool (radius 0) so that no node is
+    near. A node pass reads it once per thread, before its loop over nodes."""
+    p0 = tool_pose[0]
+    p1 = tool_pose[1]
+    radius = tool_pose[2][0]
+    centre = 0.5 * (p0 + p1)
+    reach2 = -1.0
+    if radius > 0.0:
+        reach2 = tool_reach2(p0, p1, radius)
+    return wp.vec4(centre[0], centre[1], centre[2], reach2)
+
+
+@wp.func
 def push_out_near_tool(
     i: int,
+    x: wp.vec3,
     positions: wp.array(dtype=wp.vec3),
     velocities: wp.array(dtype=wp.vec3),
     inertia: wp.vec3,
     flags: int,
     tool_pose: wp.array(dtype=wp.vec3),
+    sphere: wp.vec4,
     h: float,
     tool_force: wp.array(dtype=wp.vec3),
     contact_count: wp.array(dtype=wp.int32),
     contact_position_sum: wp.array(dtype=wp.vec3),
 ):
-    """``push_out_node`` for the tool in ``tool_pose`` (p0, p1, (radius, 0, 0)), after the
-    cheap sphere test; radius 0 means no tool."""
-    p0 = tool_pose[0]
-    p1 = tool_pose[1]
-    radius = tool_pose[2][0]
-    if radius > 0.0:
-        if wp.length_sq(positions[i] - 0.5 * (p0 + p1)) <= tool_reach2(p0, p1, radius):
-            push_out_node(i, positions, velocities, inertia, flags, p0, p1, radius, h,
-                          tool_force, contact_count, contact_position_sum)
+    """``push_out_node`` for node i, whose new position x [m] is in positions[i], when x is
+    inside ``sphere`` (``tool_sphere`` of ``tool_pose``). Returns the node's position after:
+    x, or where it was pushed to."""
+    d = x - wp.vec3(sphere[0], sphere[1], sphere[2])
+    if wp.dot(d, d) <= sphere[3]:
+        push_out_node(i, positions, velocities, inertia, flags, tool_pose[0], tool_pose[1],
+                      tool_pose[2][0], h, tool_force, contact_count, contact_position_sum)
+        return positions[i]
+    return x
 
 
 @wp.kernel

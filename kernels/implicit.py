@@ -29,6 +29,7 @@ block diagonals' diagonal).
 
 import warp as wp
 
+from .chunks import chunk_start
 from .diagnostics import report_runaway
 from .flags import is_free
 from .integrate import foundation_force
@@ -102,7 +103,7 @@ def spring_matvec(
     if k_iter >= 0:
         if converged(cg, k_iter, tol2):
             return
-    s = wp.tid() * chunk
+    s = chunk_start(wp.tid(), chunk)
     end = wp.min(s + chunk, count)
     while s < end:
         i = spring_indices[2 * s]
@@ -190,7 +191,7 @@ def _make_start(foundation: bool):
         inv_diagonal: wp.array(dtype=wp.vec3),
         cg: wp.array2d(dtype=wp.float64),
     ):
-        i = wp.tid() * chunk
+        i = chunk_start(wp.tid(), chunk)
         end = wp.min(i + chunk, count)
         while i < end:
             flags = node_flags[i]
@@ -262,7 +263,7 @@ def _make_curvature(foundation: bool):
     ):
         if converged(cg, k_iter, tol2):
             return
-        i = wp.tid() * chunk
+        i = chunk_start(wp.tid(), chunk)
         end = wp.min(i + chunk, count)
         while i < end:
             flags = node_flags[i]
@@ -310,7 +311,7 @@ def cg_descend(
     alpha = 0.0
     if pap > wp.float64(0.0):
         alpha = float(cg[k_iter, 0] / pap)
-    i = wp.tid() * chunk
+    i = chunk_start(wp.tid(), chunk)
     end = wp.min(i + chunk, count)
     while i < end:
         x[i] = x[i] + alpha * p[i]
@@ -337,7 +338,7 @@ def cg_direction(
     if converged(cg, k_iter, tol2):
         return
     beta = float(cg[k_iter + 1, 0] / cg[k_iter, 0])
-    i = wp.tid() * chunk
+    i = chunk_start(wp.tid(), chunk)
     end = wp.min(i + chunk, count)
     while i < end:
         p[i] = z[i] + beta * p[i]
@@ -361,7 +362,7 @@ def implicit_advance(
     """x' = x + h v' (free nodes); pinned and inactive nodes stay, with zero velocity.
     The new state is checked (``diagnostics.report_runaway``: rest_positions [m],
     max_displacement_sq [m^2], first_bad (1,) int32 lowered to the first bad node)."""
-    i = wp.tid() * chunk
+    i = chunk_start(wp.tid(), chunk)
     end = wp.min(i + chunk, count)
     while i < end:
         flags = node_flags[i]
@@ -380,7 +381,7 @@ def implicit_advance(
 @wp.kernel
 def zero_vectors(chunk: int, count: int, a: wp.array(dtype=wp.vec3)):
     """a[i] = 0 for i < count."""
-    i = wp.tid() * chunk
+    i = chunk_start(wp.tid(), chunk)
     end = wp.min(i + chunk, count)
     while i < end:
         a[i] = wp.vec3(0.0)

@@ -16,7 +16,8 @@ state is checked in the same pass (``diagnostics.report_runaway``).
 
 import warp as wp
 
-from .collision import push_out_near_tool
+from .chunks import chunk_start
+from .collision import push_out_near_tool, tool_sphere
 from .diagnostics import report_runaway
 from .flags import is_free
 from .variants import specialised, variant_family
@@ -56,30 +57,29 @@ def _make(gravity: bool, collision: bool, foundation: bool):
         max_displacement_sq: float,
         first_bad: wp.array(dtype=wp.int32),
     ):
-        i = wp.tid() * chunk
+        i = chunk_start(wp.tid(), chunk)
         end = wp.min(i + chunk, count)
+        sphere = tool_sphere(tool_pose)
         while i < end:
             x = positions_in[i]
             flags = node_flags[i]
             m = node_mass[i]
-            damping = node_damping[i]
-            if not is_free(flags):
-                positions_out[i] = x
-                velocities_out[i] = wp.vec3(0.0)
-            else:
+            inertia = m + h * node_damping[i]
+            v = wp.vec3(0.0)
+            if is_free(flags):
                 f = forces[i]
                 if wp.static(gravity):
                     f = f + gravity_accel * m
                 if wp.static(foundation):
                     f = f + foundation_force(x, rest_positions[i], node_area[i], foundation_stiffness)
-                v = (velocities_in[i] * m + f * h) / (m + h * damping)
-                positions_out[i] = x + v * h
-                velocities_out[i] = v
+                v = (velocities_in[i] * m + f * h) / inertia
+                x = x + v * h
+            positions_out[i] = x
+            velocities_out[i] = v
             if wp.static(collision):
-                push_out_near_tool(i, positions_out, velocities_out, wp.vec3(m + h * damping),
-                                   flags, tool_pose, h, tool_force, contact_count,
-                                   contact_position_sum)
-            report_runaway(i, flags, positions_out[i], rest_positions, max_displacement_sq, first_bad)
+                x = push_out_near_tool(i, x, positions_out, velocities_out, wp.vec3(inertia), flags,
+                                       tool_pose, sphere, h, tool_force, contact_count, contact_position_sum)
+            report_runaway(i, flags, x, rest_positions, max_displacement_sq, first_bad)
             forces[i] = wp.vec3(0.0)
             i += 1
 

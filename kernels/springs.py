@@ -5,13 +5,13 @@ a stretched spring pulls its ends together. At zero length the direction is
 undefined and the force is zero (finite, and the pair is at rest length 0 only
 if ``L0 == 0``, where the force is zero anyway).
 
-Kernels here take ``chunk`` and ``count``: thread t handles items
-``[t * chunk, min((t + 1) * chunk, count))``. On a GPU chunk = 1 (one thread per
-spring); on the CPU, where Warp runs threads one after another and pays a few
-nanoseconds per thread, a large chunk halves the cost of a small spring.
+Kernels here take ``chunk`` and ``count``: thread t handles springs
+``[t * chunk, min((t + 1) * chunk, count))`` (``chunks.chunk_start``).
 """
 
 import warp as wp
+
+from .chunks import chunk_start
 
 wp.set_module_options({"enable_backward": False})
 
@@ -44,7 +44,7 @@ def spring_forces(
     spring_indices: (2 * spring_count,) int32, negative = deleted slot.
     spring_rest_length [m], spring_stiffness [N/m]: (spring_count,).
     """
-    s = wp.tid() * chunk
+    s = chunk_start(wp.tid(), chunk)
     end = wp.min(s + chunk, count)
     while s < end:
         i = spring_indices[2 * s]

@@ -22,7 +22,8 @@ the step, see ``warp_cut.sim.stability``). At equilibrium the one-iteration pass
 
 import warp as wp
 
-from .collision import push_out_near_tool
+from .chunks import chunk_start
+from .collision import push_out_near_tool, tool_sphere
 from .diagnostics import report_runaway
 from .flags import is_free
 from .integrate import foundation_force
@@ -43,7 +44,7 @@ def spring_valence(
 ):
     """valence (node_count,) += 1 and stiffness_sum [N/m] += k at both ends of every live
     spring (the caller zeroes both)."""
-    s = wp.tid() * chunk
+    s = chunk_start(wp.tid(), chunk)
     end = wp.min(s + chunk, count)
     while s < end:
         i = spring_indices[2 * s]
@@ -78,7 +79,7 @@ def distance_constraints(
     delta: wp.array(dtype=wp.vec3),
 ):
     """delta (node_count,) [m] += the Jacobi corrections of the springs' distance constraints."""
-    s = wp.tid() * chunk
+    s = chunk_start(wp.tid(), chunk)
     end = wp.min(s + chunk, count)
     while s < end:
         i = spring_indices[2 * s]
@@ -117,7 +118,7 @@ def _make_predict(gravity: bool, foundation: bool):
         count: int,
         positions_out: wp.array(dtype=wp.vec3),
     ):
-        i = wp.tid() * chunk
+        i = chunk_start(wp.tid(), chunk)
         end = wp.min(i + chunk, count)
         while i < end:
             x = positions_in[i]
@@ -160,8 +161,9 @@ def _make_finish(collision: bool):
         max_displacement_sq: float,
         first_bad: wp.array(dtype=wp.int32),
     ):
-        i = wp.tid() * chunk
+        i = chunk_start(wp.tid(), chunk)
         end = wp.min(i + chunk, count)
+        sphere = tool_sphere(tool_pose)
         while i < end:
             flags = node_flags[i]
             m = node_mass[i]
@@ -169,8 +171,8 @@ def _make_finish(collision: bool):
             if free:
                 positions_out[i] = positions_out[i] + delta[i]
             if wp.static(collision):
-                push_out_near_tool(i, positions_out, velocities_out,
-                                   wp.vec3(m + h * h * stiffness_sum[i]), flags, tool_pose, h,
+                push_out_near_tool(i, positions_out[i], positions_out, velocities_out,
+                                   wp.vec3(m + h * h * stiffness_sum[i]), flags, tool_pose, sphere, h,
                                    tool_force, contact_count, contact_position_sum)
             if free:
                 v = (positions_out[i] - positions_in[i]) / h
