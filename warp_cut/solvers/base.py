@@ -152,7 +152,7 @@ class SolverBase:
         """Forget recorded launches and re-derive the solver's own arrays from the model."""
         self._last_tool = None
         self._derive()
-        extent = self._extent()
+        extent = self._extent_now = self._extent()  # what `_key` adds, until the next change
         self._sequences = {key: seq for key, seq in self._sequences.items() if key[3:] == extent}
 
     def step(self, state_in, state_out, tool: Tool | None, h: float) -> None:
@@ -187,8 +187,9 @@ class SolverBase:
         return len(self.prepare(state_in, state_out, h))
 
     def _key(self, state_in, state_out, h: float) -> tuple:
-        """What a recorded sequence depends on: the state buffers, h and the model's sizes."""
-        return (state_in.positions.ptr, state_out.positions.ptr, float(h)) + self._extent()
+        """What a recorded sequence depends on: the state buffers, h and the model's sizes (as
+        of the last ``topology_changed``: worked out there, not in every step)."""
+        return (state_in.positions.ptr, state_out.positions.ptr, float(h)) + self._extent_now
 
     def _extent(self) -> tuple:
         """The model sizes baked into recorded launches (dims and count arguments): here the
