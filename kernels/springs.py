@@ -29,6 +29,13 @@ def spring_force(xi: wp.vec3, xj: wp.vec3, rest: float, k: float):
     return d * (k - k * rest / wp.sqrt(length2))
 
 
+@wp.func
+def flush_run(forces: wp.array(dtype=wp.vec3), node: int, f: wp.vec3):
+    """Add the summed force f [N] of a run of springs to their first node (none when node < 0)."""
+    if node >= 0:
+        wp.atomic_add(forces, node, f)
+
+
 @wp.kernel
 def spring_forces(
     positions: wp.array(dtype=wp.vec3),
@@ -43,14 +50,25 @@ def spring_forces(
 
     spring_indices: (2 * spring_count,) int32, negative = deleted slot.
     spring_rest_length [m], spring_stiffness [N/m]: (spring_count,).
+    Springs in a row with the same first node (springs are listed in node order) read its
+    position once and add their summed force to it once, when the run ends.
     """
     s = chunk_start(wp.tid(), chunk)
     end = wp.min(s + chunk, count)
+    run = wp.int32(-1)  # first node of the current run
+    xi = wp.vec3(0.0)
+    fi = wp.vec3(0.0)  # the run's force on it
     while s < end:
         i = spring_indices[2 * s]
         j = spring_indices[2 * s + 1]
         if i >= 0 and j >= 0:
-            f = spring_force(positions[i], positions[j], spring_rest_length[s], spring_stiffness[s])
-            wp.atomic_add(forces, i, f)
+            if i != run:
+                flush_run(forces, run, fi)
+                run = i
+                xi = positions[i]
+                fi = wp.vec3(0.0)
+            f = spring_force(xi, positions[j], spring_rest_length[s], spring_stiffness[s])
+            fi += f
             wp.atomic_sub(forces, j, f)
         s += 1
+    flush_run(forces, run, fi)
