@@ -48,7 +48,7 @@ def _make(gravity: bool, collision: bool, foundation: bool):
         tool_pose: wp.array(dtype=wp.vec3),
         h: float,
         chunk: int,
-        count: int,
+        used_slots: wp.array(dtype=wp.int32),
         positions_out: wp.array(dtype=wp.vec3),
         velocities_out: wp.array(dtype=wp.vec3),
         tool_force: wp.array(dtype=wp.vec3),
@@ -58,7 +58,7 @@ def _make(gravity: bool, collision: bool, foundation: bool):
         first_bad: wp.array(dtype=wp.int32),
     ):
         i = chunk_start(wp.tid(), chunk)
-        end = wp.min(i + chunk, count)
+        end = wp.min(i + chunk, used_slots[0])
         sphere = tool_sphere(tool_pose)
         while i < end:
             x = positions_in[i]
@@ -95,9 +95,11 @@ def integrate_kernel(gravity: bool, collision: bool, foundation: bool = False):
     rest_positions (node_count,) vec3 [m] (the foundation's anchors and the stability guard's
     reference), node_area (node_count,) float32 [m^2] and foundation_stiffness k_f [N/m^3]
     (read only by the foundation variant); tool_pose (3,) vec3: p0, p1 [m], (radius [m], 0, 0),
-    radius 0 = no tool; h [s]; chunk, count (thread t handles nodes [t chunk, min((t + 1) chunk,
-    count))); outputs positions_out, velocities_out; tool_force (1,) vec3 [N], contact_count
-    (1,) int32, contact_position_sum (1,) vec3 [m], accumulated; the stability guard
+    radius 0 = no tool; h [s]; chunk and used_slots (4,) int32 (``DeviceModel.used_slots``:
+    thread t handles nodes [t chunk, min((t + 1) chunk, used_slots[0])), so a launch over the
+    node capacity skips the unused slots, whose state and forces nothing changes); outputs
+    positions_out, velocities_out; tool_force (1,) vec3 [N], contact_count (1,) int32,
+    contact_position_sum (1,) vec3 [m], accumulated; the stability guard
     (``diagnostics.report_runaway`` on the new state): max_displacement_sq [m^2], first_bad (1,)
     int32 lowered to the first bad node.
     """

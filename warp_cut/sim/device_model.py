@@ -112,11 +112,14 @@ class DeviceModel:
         spring_count: Used spring slots.
         link_count: Used link slots.
         hinge_count: Used hinge slots.
+        used_slots: The four counts above on the device, (4,) int32 (node, spring, link, hinge),
+            for a launch recorded over a table's capacity to stop at its used slots.
     """
 
     def __init__(self, model, device: str = "cpu"):
         self.device = device
         self.model = model
+        self.used_slots = wp.zeros(4, dtype=wp.int32, device=device)
         self._allocate()
 
     @property
@@ -142,11 +145,16 @@ class DeviceModel:
         self._counts()
 
     def _counts(self) -> None:
-        """Read the used slot counts from the tables."""
+        """Read the used slot counts from the tables (and mirror them in ``used_slots``)."""
         self.node_count = self.model.node_table.count
         self.spring_count = self.model.spring_table.count
         self.link_count = self.model.link_table.count
         self.hinge_count = self.model.hinge_table.count
+        counts = np.array([self.node_count, self.spring_count, self.link_count, self.hinge_count], np.int32)
+        if self.used_slots.device.is_cpu:  # host memory: written in place, no copy call
+            self.used_slots.numpy()[:] = counts
+        else:
+            self.used_slots.assign(counts)
 
     def sync(self) -> bool:
         """Copy the model's changed slots to the device.

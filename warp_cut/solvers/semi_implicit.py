@@ -60,6 +60,6 @@ class SemiImplicitSolver(SolverBase):
                 [state_in.positions, state_in.velocities, forces, m.node_mass, m.node_damping,
                  m.node_flags, self.gravity if self.gravity is not None else wp.vec3(0.0),
                  m.rest_positions, m.node_area, self.foundation_stiffness, self.tool_pose, h,
-                 self.chunk, nodes, state_out.positions, state_out.velocities,
+                 self.chunk, m.used_slots, state_out.positions, state_out.velocities,
                  self.tool_force, self.contact_count, self.contact_position_sum]
                 + self.guard_inputs(rest=False))
