@@ -45,6 +45,9 @@ def test_device_mirror_follows_edits_and_growth():
     np.testing.assert_array_equal(dev.spring_indices.numpy()[: 2 * table.count],
                                   table.column("pairs").ravel())
     assert dev.spring_count == table.count
+    # the used counts on the device (what launches over the capacity stop at) follow too
+    assert dev.used_slots.numpy().tolist() == [model.node_table.count, table.count,
+                                               model.link_table.count, model.hinge_table.count]
 
 
 def test_changed_rows_replicate_a_table_edit_by_edit():
