@@ -138,6 +138,7 @@ def run_case(case: dict, *, strokes: int | None = None, log=print) -> list[dict]
         return [row]
     border = original_border(model)
     original_slots = model.triangle_table.count
+    substeps_start = sim.substeps
     rows = []
     for index, spec in enumerate(case["strokes"][:strokes]):
         stroke = build_stroke(surface, spec)
@@ -146,6 +147,7 @@ def run_case(case: dict, *, strokes: int | None = None, log=print) -> list[dict]
         result = run_stroke(sim, stroke, surface, border_keys=border)
         rows.append(_stroke_row(case, index, spec, stroke, result, sim, surface, time.perf_counter() - start))
         rows[-1].update(_refused(refused_before, sim.cutter.skipped))
+        rows[-1].update({"substeps_start": substeps_start, "substeps": sim.substeps})
         log(_progress(rows[-1]))
         if result.exception:
             break  # the tissue is in an unknown state after an exception

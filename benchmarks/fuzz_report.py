@@ -75,7 +75,19 @@ def _stats(rows) -> dict:
         "settled_slivers": sum(r.get("settled_min_cut_angle_deg", 180.0) < 10.0 for r in rows),
         "settle_exceptions": sum(bool(r.get("settle_exception")) for r in rows),
         "lat_p50": _pct(latency, 50), "lat_p99": _pct(latency, 99), "lat_max": _pct(latency, 100),
+        "substep_growth": _substep_growth(ran),
     }
+
+
+def _substep_growth(ran) -> tuple[float, str, int]:
+    """(the largest ratio of a stroke's substeps per step after it to its case's before any
+    stroke, that stroke's reproducer, strokes above 4x): the cut's edits shortening the stable
+    step (a hinge or a link on a light node) show here."""
+    grown = [(r["substeps"] / max(r["substeps_start"], 1), r["reproducer"]) for r in ran if "substeps" in r]
+    if not grown:
+        return 1.0, "", 0
+    ratio, where = max(grown)
+    return ratio, where, sum(g > 4.0 for g, _ in grown)
 
 
 def _totals(rows, wall) -> list[str]:
@@ -108,6 +120,9 @@ def _totals(rows, wall) -> list[str]:
         f"{s['settle_exceptions']}",
         f"- host latency per cut event: p50 {_fmt(s['lat_p50'])} ms, p99 **{_fmt(s['lat_p99'])} ms**, "
         f"max {_fmt(s['lat_max'])} ms",
+        f"- substeps per step after a stroke against its case's before the first: at most "
+        f"{_fmt(s['substep_growth'][0])} times (`{s['substep_growth'][1]}`), more than 4 times after "
+        f"{s['substep_growth'][2]} strokes",
     ]
 
 
