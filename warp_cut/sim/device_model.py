@@ -151,10 +151,7 @@ class DeviceModel:
         self.link_count = self.model.link_table.count
         self.hinge_count = self.model.hinge_table.count
         counts = np.array([self.node_count, self.spring_count, self.link_count, self.hinge_count], np.int32)
-        if self.used_slots.device.is_cpu:  # host memory: written in place, no copy call
-            self.used_slots.numpy()[:] = counts
-        else:
-            self.used_slots.assign(counts)
+        write_slots(self.used_slots, np.arange(4), counts)
 
     def sync(self) -> bool:
         """Copy the model's changed slots to the device.
