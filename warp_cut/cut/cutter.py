@@ -560,6 +560,10 @@ class Cutter:
         live = self.model.triangle_table.live_slots()
         return np.flatnonzero(np.isin(live, np.fromiter(self.new_triangles, dtype=np.int64)))
 
+    def event_latency_ms(self) -> np.ndarray:
+        """Each cut event's whole time [ms] (events,): the sum of its stages (``STAGES``)."""
+        return np.sum([self.latency_ms[name] for name in STAGES], axis=0).reshape(-1)
+
     def latency_summary(self) -> dict:
         """p50 / p99 / max latency per stage [ms] over the cut events."""
         out = {}

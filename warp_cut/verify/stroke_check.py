@@ -107,9 +107,7 @@ def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
     result.slivers, result.min_new_angle_deg = new_slivers(model, sim.positions, before["triangles"])
     result.border_loops_added = border_loop_count(model) - before["loops"]
     result.unfilled_holes = max(0, result.border_loops_added - result.incisions)
-    n = before["latency"]
-    stages = [np.asarray(v[n:]) for v in cutter.latency_ms.values()]
-    result.latency_ms = (np.sum(stages, axis=0).tolist() if stages and len(stages[0]) else [])
+    result.latency_ms = cutter.event_latency_ms()[before["latency"]:].tolist()
 
 
 def run_stroke(sim, stroke, surface, *, border_keys=None, check: bool = True,
