@@ -1,6 +1,9 @@
 """warp_cut/sim/strokes.py and stroke_quality.py: tool poses drawing a path on a surface, and
 the coverage measure.
 
+The slivers among the triangles a stroke made (``new_slivers``, ``new_rest_slivers``) are
+checked on a hand-built mesh whose angles are known.
+
 Poses are checked against the definition (axis through the surface point, tilted by alpha from
 the tangent plane, leaning back against the travel, tip ``depth`` below the tangent plane),
 against closed-form traces (a circle around a cylinder, a geodesic over a dome), and the start
@@ -17,10 +20,19 @@ import warp as wp
 from conftest import DEVICE
 
 import warp_cut as wc
+from warp_cut.cut.tolerances import MIN_ANGLE_DEG
 from warp_cut.mesh import surfaces as S
 from warp_cut.sim import strokes as K
 from warp_cut.verify.stroke_check import coverage_tolerance
-from warp_cut.verify.stroke_quality import _over_skin, coverage, original_border, skin_at_rest, wound_edges
+from warp_cut.verify.stroke_quality import (
+    _over_skin,
+    coverage,
+    new_rest_slivers,
+    new_slivers,
+    original_border,
+    skin_at_rest,
+    wound_edges,
+)
 
 H = 0.002
 
@@ -250,3 +262,26 @@ def test_a_closed_tube_lies_flat_in_the_parameter_plane():
     assert area == pytest.approx(length * period, rel=1e-9)
     u, v = np.meshgrid(np.linspace(-0.49 * length, 0.49 * length, 25), np.linspace(-0.5, 0.5, 81) * period)
     assert _over_skin(np.column_stack([u.ravel(), v.ravel()]), skin).all()
+
+
+# ---------------------------------------------------------------- slivers among the triangles a stroke made
+def test_new_slivers_at_rest_and_as_the_skin_lies():
+    """Three triangles (A-B 1 cm): slot 0 the tissue's (an 11.3 deg sliver at rest, left out: made
+    before the stroke), slot 1 the stroke's (15 deg at A at rest, 5 deg once C has moved towards
+    A-B), slot 2 the stroke's (3 deg at E at rest, deleted: left out). At rest the stroke's live
+    triangle is under the cut's 20 deg, not under 10 deg; as the skin lies it is under 10 deg."""
+    L = 0.01
+    h = L * math.tan(math.radians(15.0))
+    a, b, c, d = [0.0, 0.0, 0.0], [L, 0.0, 0.0], [L, h, 0.0], [0.5 * L, -0.1 * L, 0.0]
+    e = [L + 0.5 * h / math.tan(math.radians(1.5)), 0.5 * h, 0.0]  # B-E-C: 3 deg at E
+    model = wc.TissueModel.from_triangles([a, b, c, d, e], [[0, 3, 1], [0, 1, 2], [1, 4, 2]])
+    model.triangle_table.kill([2])
+    now = model.points.copy()
+    now[2, 1] = L * math.tan(math.radians(5.0))
+    assert MIN_ANGLE_DEG == 20.0
+    assert new_rest_slivers(model, 1) == (1, pytest.approx(15.0, abs=1e-9))
+    assert new_slivers(model, now, 1) == (1, pytest.approx(5.0, abs=1e-9))
+    assert new_slivers(model, model.points, 1) == (0, pytest.approx(15.0, abs=1e-9))  # 10 deg by default
+    assert new_rest_slivers(model, 0) == (2, pytest.approx(math.degrees(math.atan(0.2)), abs=1e-9))
+    count, angle = new_rest_slivers(model, 3)
+    assert count == 0 and math.isnan(angle)

@@ -1,9 +1,9 @@
 """Run one stroke through a cutting Simulator, as a user does, checking the tissue after every edit.
 
 ``run_stroke`` steps ``sim`` once per ``sim.dt`` with the stroke's pose (``sim.step(tool=pose)``),
-runs ``cut_problems`` (``warp_cut.mesh.validity``) whenever a cut event or another topology edit
+runs ``cut_problems`` (``warp_cut.verify.validity``) whenever a cut event or another topology edit
 happened in the step, lets the tool go (``tool=None``) for a short settle so the incision ends,
-and measures the stroke (``warp_cut.mesh.stroke_quality``). An exception inside the stroke is
+and measures the stroke (``warp_cut.verify.stroke_quality``). An exception inside the stroke is
 caught and returned in the result with its traceback, so a fuzz run can go on.
 """
 
@@ -21,6 +21,7 @@ from .stroke_quality import (
     coverage,
     curve_coverage,
     lip_deviation,
+    new_rest_slivers,
     new_slivers,
     original_border,
     skin_at_rest,
@@ -51,7 +52,11 @@ class StrokeResult:
     lip_deviation_median: float = float("nan")
     lip_nodes: int = 0
     slivers: int = 0
+    """Triangles the stroke made under ``SLIVER_DEG`` (10 deg) as the skin lies at its end."""
     min_new_angle_deg: float = float("nan")
+    rest_slivers: int = 0
+    """Triangles the stroke made under ``MIN_ANGLE_DEG`` (20 deg) in the rest shape: the cut's promise broken."""
+    min_new_rest_angle_deg: float = float("nan")
     border_loops_added: int = 0
     latency_ms: list = field(default_factory=list)
     """Host time of each cut event of the stroke [ms] (sum of the Cutter's stages)."""
@@ -105,6 +110,7 @@ def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
     result.lip_deviation_max, result.lip_deviation_median, result.lip_nodes = lip_deviation(
         stroke, model, before["nodes"])
     result.slivers, result.min_new_angle_deg = new_slivers(model, sim.positions, before["triangles"])
+    result.rest_slivers, result.min_new_rest_angle_deg = new_rest_slivers(model, before["triangles"])
     result.border_loops_added = border_loop_count(model) - before["loops"]
     result.unfilled_holes = max(0, result.border_loops_added - result.incisions)
     result.latency_ms = cutter.event_latency_ms()[before["latency"]:].tolist()

@@ -27,7 +27,10 @@ Definitions (the measuring stick for cuts on curved and irregular skin):
 * lip deviation - the 3D distance [m] of the lip nodes the stroke made (at their rest
   positions) from the trace polyline: max and median.
 * slivers - triangles the stroke made that are live at its end with a smallest angle below
-  10 deg (current positions).
+  10 deg (``SLIVER_DEG``) as the skin lies (current positions).
+* rest slivers - the same triangles with a smallest angle below 20 deg (``MIN_ANGLE_DEG``, what
+  the cut promises) in the rest shape (``model.points``): a rest sliver is a re-mesh defect, a
+  sliver only as the skin lies was crushed (or made crushed) by the motion.
 """
 
 from __future__ import annotations
@@ -37,12 +40,13 @@ import math
 import numpy as np
 
 from ..cut.classes import NodeClass
+from ..cut.tolerances import MIN_ANGLE_DEG
 from ..mesh.geometry import SLIVER_DEG, triangle_min_angles
 from ..mesh.triangulate import border_loop_count as loops_of
 from ..mesh.triangulate import boundary_edges
 
 __all__ = ["original_border", "wound_edges", "skin_at_rest", "in_plane", "coverage", "curve_coverage", "lip_deviation",
-           "new_slivers", "segment_distances", "border_loop_count"]
+           "new_slivers", "new_rest_slivers", "segment_distances", "border_loop_count"]
 
 def _keys(pairs: np.ndarray, n: int) -> np.ndarray:
     p = np.sort(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), axis=1)
@@ -202,16 +206,23 @@ def lip_deviation(stroke, model, first_new_node: int) -> tuple[float, float, int
     return float(dist.max()), float(np.median(dist)), int(len(nodes))
 
 
-def new_slivers(model, positions, first_new_triangle: int) -> tuple[int, float]:
-    """(count of slivers, smallest angle [deg]) among the live triangles made since triangle
-    slot ``first_new_triangle`` (nan angle if none)."""
+def new_slivers(model, positions, first_new_triangle: int, below: float = SLIVER_DEG) -> tuple[int, float]:
+    """(count of triangles with a smallest angle under ``below`` [deg], smallest angle [deg])
+    among the live triangles made since triangle slot ``first_new_triangle``, at ``positions``
+    (n, 3) [m] (nan angle if none)."""
     table = model.triangle_table
     slots = table.live_slots()
     rows = np.flatnonzero(slots >= first_new_triangle)
     if not len(rows):
         return 0, float("nan")
     angles = triangle_min_angles(positions, model.triangles[rows])
-    return int((angles < SLIVER_DEG).sum()), float(angles.min())
+    return int((angles < below).sum()), float(angles.min())
+
+
+def new_rest_slivers(model, first_new_triangle: int) -> tuple[int, float]:
+    """``new_slivers`` in the rest shape (``model.points``) against the cut's promise,
+    ``MIN_ANGLE_DEG``: (count under it, smallest rest angle [deg])."""
+    return new_slivers(model, model.points, first_new_triangle, below=MIN_ANGLE_DEG)
 
 
 def border_loop_count(model) -> int:
