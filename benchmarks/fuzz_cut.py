@@ -8,10 +8,10 @@ gravity=...)``) and draws 2-4 strokes (lines, arcs, zigzags; tilt 30-75 deg, too
 ``sim.step(tool=pose)`` at a time (``warp_cut.verify.stroke_check.run_stroke``). After every
 topology edit all invariants are checked (``warp_cut.verify.validity.cut_problems``); after each
 stroke the cut is measured (``warp_cut.verify.stroke_quality``: coverage, split incisions, holes,
-lip deviation, slivers, latency); after a case's last stroke the skin settles for ``SETTLE_S``
-with the tool gone and is judged again (folded triangles, the cut's smallest angle as it then
-lies). An exception ends its case (recorded with a reproducer) and the run goes on with the
-next case.
+lip deviation, slivers as the skin lies and in the rest shape, latency); after a case's last
+stroke the skin settles for ``SETTLE_S`` with the tool gone and is judged again (folded
+triangles, the cut's smallest angle as it then lies). An exception ends its case (recorded
+with a reproducer) and the run goes on with the next case.
 
     python benchmarks/fuzz_cut.py [--events 2500] [--seed 1] [--cases N] [--kind dome] [--quick]
                                   [--out benchmarks/results/fuzz.md]
@@ -99,6 +99,7 @@ def _stroke_row(case, index, spec, stroke, result, sim, surface, wall) -> dict:
         "coverage": result.coverage, "curve_coverage": result.curve_coverage,
         "lip_dev_max_mm": 1e3 * result.lip_deviation_max, "lip_dev_median_mm": 1e3 * result.lip_deviation_median,
         "lip_nodes": result.lip_nodes, "slivers": result.slivers, "min_new_angle_deg": result.min_new_angle_deg,
+        "rest_slivers": result.rest_slivers, "min_new_rest_angle_deg": result.min_new_rest_angle_deg,
         "border_loops_added": result.border_loops_added,
         "latency_p50_ms": float(np.median(lat)) if len(lat) else float("nan"),
         "latency_max_ms": float(lat.max()) if len(lat) else float("nan"),

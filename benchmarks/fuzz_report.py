@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from warp_cut.cut.tolerances import MIN_ANGLE_DEG
+from warp_cut.mesh.geometry import SLIVER_DEG
 from warp_cut.verify.validity import FOLD_CHECKS
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -66,17 +68,27 @@ def _stats(rows) -> dict:
         "covered": sum(c >= COVERED for c in cov),
         "no_skin": len(ran) - len(cov),
         "slivers": sum(r.get("slivers", 0) > 0 for r in ran),
+        "rest_slivers": sum(r.get("rest_slivers", 0) > 0 for r in ran),
+        "min_rest_angle": _smallest_rest_angle(ran),
         "refused": sum(r.get("refused_events", 0) for r in ran),
         "refused_strokes": sum(r.get("refused_events", 0) > 0 for r in ran),
         "settled_cases": sum("settled_folded" in r for r in rows),
         "settled_folded_cases": sum(r.get("settled_folded", 0) > 0 for r in rows),
         "settled_folded": sum(r.get("settled_folded", 0) for r in rows),
         "settled_folded_cut": sum(r.get("settled_folded_cut", 0) for r in rows),
-        "settled_slivers": sum(r.get("settled_min_cut_angle_deg", 180.0) < 10.0 for r in rows),
+        "settled_slivers": sum(r.get("settled_min_cut_angle_deg", 180.0) < SLIVER_DEG for r in rows),
         "settle_exceptions": sum(bool(r.get("settle_exception")) for r in rows),
         "lat_p50": _pct(latency, 50), "lat_p99": _pct(latency, 99), "lat_max": _pct(latency, 100),
         "substep_growth": _substep_growth(ran),
     }
+
+
+def _smallest_rest_angle(ran) -> tuple[float, str]:
+    """(the smallest rest angle [deg] among the triangles the strokes made, that stroke's
+    reproducer); nan and "" if no stroke made a live triangle."""
+    angles = [(r["min_new_rest_angle_deg"], r["reproducer"]) for r in ran
+              if np.isfinite(r.get("min_new_rest_angle_deg", float("nan")))]
+    return min(angles) if angles else (float("nan"), "")
 
 
 def _substep_growth(ran) -> tuple[float, str, int]:
@@ -110,13 +122,17 @@ def _totals(rows, wall) -> list[str]:
         f"- coverage: median {_fmt(s['cov_median'])}, min {_fmt(s['cov_min'])}; "
         f"strokes with coverage >= {COVERED}: {s['covered']} of {s['strokes']} "
         f"({s['no_skin']} with no skin under their trace)",
-        f"- strokes leaving slivers (< 10 deg) among the triangles they made: {s['slivers']}",
+        f"- strokes leaving slivers (< {SLIVER_DEG:g} deg as the skin lies at the stroke's end) among the "
+        f"triangles they made: {s['slivers']}",
+        f"- strokes whose triangles go below {MIN_ANGLE_DEG:g} deg in the rest shape (the cut's promise; a re-mesh "
+        f"defect, not the motion): **{s['rest_slivers']}**; the smallest rest angle of a triangle a stroke made: "
+        f"{_fmt(s['min_rest_angle'][0])} deg" + (f" (`{s['min_rest_angle'][1]}`)" if s['min_rest_angle'][1] else ""),
         f"- cut events refused (the slit did not fit; the next event tried again, `refused_reason` in the "
         f"CSV says why): {s['refused']}, in {s['refused_strokes']} strokes",
         f"- after a case's last stroke, the skin settled {SETTLE_S} s with the tool gone ({s['settled_cases']} "
         f"cases): cases with a triangle folded over **{s['settled_folded_cases']}** ({s['settled_folded']} "
         f"triangles, {s['settled_folded_cut']} of them made by the cut); cases with a triangle the cut made "
-        f"under 10 deg as the skin lies: {s['settled_slivers']}; settles that went unstable: "
+        f"under {SLIVER_DEG:g} deg as the skin lies: {s['settled_slivers']}; settles that went unstable: "
         f"{s['settle_exceptions']}",
         f"- host latency per cut event: p50 {_fmt(s['lat_p50'])} ms, p99 **{_fmt(s['lat_p99'])} ms**, "
         f"max {_fmt(s['lat_max'])} ms",
@@ -218,7 +234,7 @@ def _failures(rows, what, test, limit=8) -> list[str]:
 
 def _named(rows) -> list[str]:
     cols = ["case", "events", "incisions", "unfilled_holes", "coverage", "curve_coverage",
-            "lip_dev_max_mm", "slivers", "violations", "exception"]
+            "lip_dev_max_mm", "slivers", "rest_slivers", "violations", "exception"]
     out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
         out.append("| " + " | ".join(_fmt(r.get(c, "")) if c != "exception" else (r[c][:120] or "-")
@@ -265,5 +281,7 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
     lines += _failures(rows, "split into several incisions", lambda r: r["incisions"] > 1)
     lines += _failures(rows, "no incision", lambda r: r["incisions"] == 0)
     lines += _failures(rows, f"coverage below {COVERED}", lambda r: r["coverage"] < COVERED)
+    lines += _failures(rows, f"triangles under {MIN_ANGLE_DEG:g} deg in the rest shape",
+                       lambda r: r.get("rest_slivers", 0) > 0)
     out.write_text("\n".join(lines) + "\n")
     write_csv(rows, out.with_suffix(".csv"))
