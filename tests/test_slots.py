@@ -5,10 +5,26 @@ import copy
 import numpy as np
 import pytest
 from conftest import DEVICE
+from hypothesis import given
+from hypothesis import strategies as st
 
 from warp_cut import TissueModel
 from warp_cut.sim.device_model import DeviceModel
-from warp_cut.sim.slots import SlotTable
+from warp_cut.sim.slots import SlotTable, member
+
+
+@given(st.lists(st.integers(0, 5000), max_size=40), st.lists(st.integers(0, 5000), max_size=40))
+def test_member_agrees_with_a_set(slots, among):
+    mask = member(np.array(slots, dtype=np.int64).reshape(-1), among)
+    assert mask.tolist() == [s in set(among) for s in slots]
+
+
+def test_member_keeps_the_shape_and_refuses_negative_slots():
+    pairs = np.array([[0, 7], [3, 4], [7, 9]])
+    assert member(pairs, [7, 3]).tolist() == [[False, True], [True, False], [True, False]]
+    assert member(np.zeros((0, 2), int), [1]).shape == (0, 2)
+    with pytest.raises(ValueError, match="non-negative"):
+        member([1, -1], [1])
 
 
 def test_append_kill_and_dirty_slots():

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..mesh.geometry import cross3
 from .chart import RegionChart
 from .incision import Incision
 from .slit_band import runs_of
@@ -53,7 +54,7 @@ class Beside:
 
 def _across_curve(inc: Incision, u: np.ndarray) -> np.ndarray:
     """Unit vectors (k, 3) across ``inc``'s curve to its left at arc lengths ``u`` (k,) [m]."""
-    across = np.cross(inc.normal_at(u), inc.tangent_at(u))
+    across = cross3(inc.normal_at(u), inc.tangent_at(u))
     return across / np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
 
 

@@ -39,6 +39,7 @@ from ..mesh.checks import cuttable_problems
 from ..mesh.triangulate import border_loop_count
 from ..sim.control import Tool
 from ..sim.model import TissueModel
+from ..sim.slots import member
 from ..sim.strokes import inside_cylinder
 from .contact import BladeContact, HitLists
 from .events import EventClock
@@ -558,7 +559,7 @@ class Cutter:
     def live_new_triangles(self) -> np.ndarray:
         """Rows (into ``model.triangles``) of the live triangles this cutter made."""
         live = self.model.triangle_table.live_slots()
-        return np.flatnonzero(np.isin(live, np.fromiter(self.new_triangles, dtype=np.int64)))
+        return np.flatnonzero(member(live, np.fromiter(self.new_triangles, dtype=np.int64)))
 
     def event_latency_ms(self) -> np.ndarray:
         """Each cut event's whole time [ms] (events,): the sum of its stages (``STAGES``)."""

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..mesh.geometry import cross3
+from ..mesh.geometry import cross3, plane_frame
 
 __all__ = ["MaterialPoint", "closest_on_triangles", "nearest_triangle", "material_point", "affine_material_point"]
 
@@ -47,31 +47,38 @@ class MaterialPoint:
 
 def closest_on_triangles(point: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(distance (m,) [m], barycentric coordinates (m, 3) of the closest point) of ``point`` (3,)
-    to each triangle (m, 3, 3)."""
+    to each triangle (m, 3, 3): the foot of the perpendicular where it falls inside, else the
+    closest point of the nearest edge (the first of equals, edges 01, 12, 20)."""
     a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
-    n = cross3(b - a, c - a)
+    ab, ac = b - a, c - a
+    n = cross3(ab, ac)
     nn = (n * n).sum(axis=1)
-    flat = nn <= 1e-24 * np.maximum(((b - a) ** 2).sum(axis=1) * ((c - a) ** 2).sum(axis=1), 1e-300)
+    flat = nn <= 1e-24 * np.maximum((ab * ab).sum(axis=1) * (ac * ac).sum(axis=1), 1e-300)
     nn = np.maximum(nn, 1e-300)
-    rel = point[None] - a
-    foot = point[None] - ((rel * n).sum(axis=1) / nn)[:, None] * n
-    lam_b = (cross3(foot - a, c - a) * n).sum(axis=1) / nn
-    lam_c = (cross3(b - a, foot - a) * n).sum(axis=1) / nn
+    foot = point[None] - (((point[None] - a) * n).sum(axis=1) / nn)[:, None] * n
+    lam_b = (cross3(foot - a, ac) * n).sum(axis=1) / nn
+    lam_c = (cross3(ab, foot - a) * n).sum(axis=1) / nn
     lam = np.stack([1.0 - lam_b - lam_c, lam_b, lam_c], axis=1)
     inside = (lam >= 0.0).all(axis=1) & ~flat  # a triangle with collinear corners is its edges
-    best_d = np.where(inside, np.linalg.norm(point[None] - foot, axis=1), np.inf)
-    best = np.where(inside[:, None], lam, 0.0)
-    for i, j in ((0, 1), (1, 2), (2, 0)):
-        p, q = corners[:, i], corners[:, j]
-        pq = q - p
-        t = np.clip(((point[None] - p) * pq).sum(axis=1) / np.maximum((pq * pq).sum(axis=1), 1e-300), 0.0, 1.0)
-        d = np.linalg.norm(point[None] - (p + t[:, None] * pq), axis=1)
-        better = ~inside & (d < best_d)
-        edge = np.zeros((len(corners), 3))
-        edge[:, i], edge[:, j] = 1.0 - t, t
-        best_d = np.where(better, d, best_d)
-        best = np.where(better[:, None], edge, best)
-    return best_d, best
+    edge_d, edge_lam = _closest_on_edges(point, corners)
+    best_d = np.where(inside, np.sqrt(((point[None] - foot) ** 2).sum(axis=1)), edge_d)
+    return best_d, np.where(inside[:, None], lam, edge_lam)
+
+
+def _closest_on_edges(point: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(distance (m,) [m], barycentric coordinates (m, 3)) of the closest point to ``point``
+    (3,) on the edges of each triangle (m, 3, 3), the first of equals (edges 01, 12, 20)."""
+    m = len(corners)
+    pq = corners[:, [1, 2, 0]] - corners  # (m, 3 edges, 3)
+    t = ((point - corners) * pq).sum(axis=2) / np.maximum((pq * pq).sum(axis=2), 1e-300)
+    t = np.minimum(np.maximum(t, 0.0), 1.0)
+    gap = point - (corners + t[..., None] * pq)
+    d = np.sqrt((gap * gap).sum(axis=2))
+    rows, edge = np.arange(m), np.argmin(d, axis=1)
+    lam = np.zeros((m, 3))
+    lam[rows, edge] = 1.0 - t[rows, edge]
+    lam[rows, (edge + 1) % 3] = t[rows, edge]
+    return d[rows, edge], lam
 
 
 def _candidates(point: np.ndarray, corners: np.ndarray) -> np.ndarray:
@@ -129,10 +136,7 @@ def affine_material_point(point, normal, current: np.ndarray, rest: np.ndarray, 
     point = np.asarray(point, dtype=np.float64)
     if not len(current_corners) or not _within(point, np.asarray(current_corners, np.float64), reach):
         return None
-    n = np.asarray(normal, dtype=np.float64)
-    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(n, e1)
+    e1, e2 = plane_frame(normal)
     rel = current - point
     basis = np.column_stack([np.ones(len(rel)), rel @ e1, rel @ e2])
     sw = np.sqrt(np.asarray(weights, dtype=np.float64))

@@ -24,6 +24,7 @@ import shapely
 
 from ..mesh.geometry import triangle_angles
 from ..mesh.triangulate import boundary_edges
+from ..sim.slots import member
 from ..sim.topology_index import TopologyIndex
 from .tolerances import ROUND_ANGLE_DEG
 
@@ -57,7 +58,7 @@ def border_edges(model, triangles) -> np.ndarray:
     once = np.sort(boundary_edges(model.triangle_table.column("corners")[tris]), axis=1)
     once = once[np.lexsort((once[:, 1], once[:, 0]))]
     index = model.index  # an edge once among ``triangles`` may have its other triangle outside them
-    keep = [len(index.triangles_with_edge(int(a), int(b))) == 1 for a, b in once]
+    keep = [len(index.triangles_with_edge(a, b)) == 1 for a, b in once.tolist()]
     return once[np.array(keep, dtype=bool)] if len(once) else once
 
 
@@ -67,7 +68,7 @@ def border_nodes(model, nodes: np.ndarray) -> np.ndarray:
     decide it."""
     nodes = np.asarray(nodes, dtype=np.int64)
     edges = border_edges(model, model.index.triangles_at(nodes.tolist()))
-    return np.isin(nodes, edges.ravel())
+    return member(nodes, edges)
 
 
 class Region:

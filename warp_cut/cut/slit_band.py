@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..mesh.geometry import plane_frame
 from .incision import Incision
 from .tolerances import FIRST_STATION, MIN_ANGLE_DEG, SNAP
 
@@ -203,9 +204,7 @@ def _junction(inc: Incision, u0: float, direction: int, reach: float, borders, p
         return None
     us = u0 + direction * np.linspace(0.0, reach, max(2, int(np.ceil(reach / (0.05 * inc.spacing))) + 1))
     normal = inc.normal_at(np.array([u0]))[0]
-    e1 = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(normal, e1)
+    e1, e2 = plane_frame(normal)
 
     def flat(x):
         return np.stack([x @ e1, x @ e2], axis=-1)

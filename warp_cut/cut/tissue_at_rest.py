@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..sim.model import TissueModel
+from ..sim.slots import member
 from .chart import RegionChart, barycentric
 from .incision import Incision
 from .region import border_edges, distance_to_segments
@@ -30,7 +31,7 @@ def tissue_near(model: TissueModel, nodes: np.ndarray, own=frozenset()):
     chart = RegionChart.of_triangles(rest)  # a point over a triangle, off its plane (a curve's chord) is on it
     border = border_edges(model, tris)
     if own:
-        border = border[~(np.isin(border[:, 0], list(own)) & np.isin(border[:, 1], list(own)))]
+        border = border[~member(border, list(own)).all(axis=1)]
     return chart, rest, model.points[border]
 
 

@@ -23,6 +23,7 @@ from ..mesh.geometry import corner_areas
 from ..sim.bending import mass_caps
 from ..sim.material_policy import material_policy
 from ..sim.model_change import ModelChange
+from ..sim.slots import member
 from .classes import NodeClass, SpringClass
 
 __all__ = ["TopologyEditor", "EditReport", "NodePositions"]
@@ -45,7 +46,7 @@ class NodePositions:
         out = np.empty((len(index), 3), dtype=np.float64)
         made = np.zeros(len(index), dtype=bool)
         if self.extra:
-            made = np.isin(index, np.fromiter(self.extra, dtype=np.int64, count=len(self.extra)))
+            made = member(index, np.fromiter(self.extra, dtype=np.int64, count=len(self.extra)))
             for k in np.flatnonzero(made):
                 out[k] = self.extra[int(index[k])]
         out[~made] = self.base[index[~made]]
@@ -376,8 +377,8 @@ class TopologyEditor:
         model = self.model
         # a spring no triangle uses any more lay inside the grey area: it goes too
         pairs = model.spring_table.column("pairs")
-        stray = {slot for v in self._touched for slot in self.node_springs[v]
-                 if not self.triangles_with_edge(*(int(u) for u in pairs[slot]))}
+        near = self.index.springs_at(self._touched)
+        stray = {slot for slot, (a, b) in zip(near, pairs[near].tolist()) if not self.triangles_with_edge(a, b)}
         if stray:
             self.delete_springs(sorted(stray), residual=False)
             self.report.stray_springs.extend(sorted(stray))
@@ -521,11 +522,11 @@ class TopologyEditor:
 def _fans(v: int, triangles, corners: np.ndarray) -> list[set[int]]:
     """The triangles at node ``v`` (slots) grouped into fans: pieces joined through an edge at v."""
     fans: list[set[int]] = []
+    others = {int(t): [x for x in corners[int(t)].tolist() if x != v] for t in triangles}
     by_other: dict[int, list[int]] = {}
-    for t in triangles:
-        for x in corners[t]:
-            if int(x) != v:
-                by_other.setdefault(int(x), []).append(int(t))
+    for t, xs in others.items():
+        for x in xs:
+            by_other.setdefault(x, []).append(t)
     seen: set[int] = set()
     for t in triangles:
         if t in seen:
@@ -536,7 +537,7 @@ def _fans(v: int, triangles, corners: np.ndarray) -> list[set[int]]:
             if u in fan:
                 continue
             fan.add(u)
-            todo += [w for x in corners[u] if int(x) != v for w in by_other[int(x)]]
+            todo += [w for x in others[u] for w in by_other[x]]
         seen |= fan
         fans.append(fan)
     return fans

@@ -51,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .bending import bending_rows
+from .slots import member
 
 __all__ = ["StepLimit", "stable_time_step", "node_stiffness_sums", "foundation_rows", "bending_node_rows",
            "damped_step", "ElementRates"]
@@ -295,9 +296,9 @@ class ElementRates:
         for pairs, k in ((model.spring_table.column("pairs")[springs_at],
                           model.spring_table.column("stiffness")[springs_at]),
                          (model.link_table.column("pairs")[links_at], _link_stiffness(model, links_at))):
-            for end in (pairs[:, 0], pairs[:, 1]):
-                mine = np.isin(end, nodes)
-                np.add.at(self.sums, end[mine], k[mine])
+            mine = member(pairs, nodes)  # (e, 2)
+            for end in (0, 1):
+                np.add.at(self.sums, pairs[mine[:, end], end], k[mine[:, end]])
 
     def _spring_slots(self, edges, springs_near) -> np.ndarray:
         """Spring slot of each node pair in ``edges`` (e, 2) among ``springs_near`` (-1 if none)."""
@@ -316,7 +317,7 @@ class ElementRates:
         edges of triangles that hold all of theirs (-1: an edge without a spring)."""
         self.on_triangles[springs_at] = 0
         hit = edge_slots[edge_slots >= 0]
-        np.add.at(self.on_triangles, hit[np.isin(hit, springs_at)], 1)
+        np.add.at(self.on_triangles, hit[member(hit, springs_at)], 1)
 
     def _triangle_edge_stiffness(self, slots) -> np.ndarray:
         """(t, 3) stiffness each triangle gets of its edges' springs, their slots (t, 3) (a

@@ -53,19 +53,19 @@ class TopologyIndex:
 
     def triangles_at(self, nodes) -> list[int]:
         """Sorted live triangle slots with a corner among ``nodes``."""
-        return sorted({t for v in nodes for t in self.node_triangles[int(v)]})
+        return _union_at(self.node_triangles, nodes)
 
     def springs_at(self, nodes) -> list[int]:
         """Sorted live spring slots with an end among ``nodes``."""
-        return sorted({s for v in nodes for s in self.node_springs[int(v)]})
+        return _union_at(self.node_springs, nodes)
 
     def links_at(self, nodes) -> list[int]:
         """Sorted live residual-link slots with an end among ``nodes``."""
-        return sorted({s for v in nodes for s in self.node_links[int(v)]})
+        return _union_at(self.node_links, nodes)
 
     def hinges_at(self, nodes) -> list[int]:
         """Sorted live hinge slots with a node among ``nodes``."""
-        return sorted({h for v in nodes for h in self.node_hinges[int(v)]})
+        return _union_at(self.node_hinges, nodes)
 
     # ------------------------------------------------------------------ nodes
     def grow(self, node_count: int) -> None:
@@ -145,3 +145,10 @@ class TopologyIndex:
                 "triangle_table": self.remove_triangle,
                 "link_table": lambda s, k: self.remove_link(s, int(k[0]), int(k[1])),
                 "hinge_table": self.remove_hinge}
+
+
+def _union_at(sets: list[set], nodes) -> list[int]:
+    """Sorted union of ``sets[v]`` over the node slots ``nodes`` (an iterable or an array)."""
+    if isinstance(nodes, np.ndarray):
+        nodes = nodes.tolist()
+    return sorted(set().union(*[sets[int(v)] for v in nodes]))
