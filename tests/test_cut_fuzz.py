@@ -9,7 +9,8 @@ and cuts the stroke with ``sim.step(tool=pose)`` every 1 ms, as a user does
 manifold edges, springs = edges, masses and their balance, links between live nodes, the device
 mirror, finite state) are hard assertions, and so are the cut's own properties: no exception,
 one incision per stroke, no hole (border loops beyond one per incision, counted on the mesh)
-once the tool has left, no triangle wound against the surface in the rest shape. One is an
+once the tool has left, no triangle wound against the surface in the rest shape, every triangle
+the stroke made at least 20 deg in the rest shape. One is an
 expected failure (``xfail``, naming the cases that
 fail): coverage >= 0.95. (``make fuzz`` runs thousands of events, several strokes per mesh, crossing earlier cuts;
 its report says where the cut still falls short.)
@@ -151,6 +152,14 @@ def test_no_triangle_is_wound_against_the_surface_in_the_rest_shape(case):
     analytic normal there, whatever the tool did to the current positions."""
     _, result = cut(case)
     assert "tri_against_rest" not in result.violations
+
+
+@fuzz
+def test_every_triangle_the_stroke_made_keeps_the_smallest_angle_at_rest(case):
+    """The cut promises every triangle it makes at least ``MIN_ANGLE_DEG`` (20 deg) in the rest
+    shape (``stroke_quality.new_rest_slivers``); as the skin lies, the motion may crush them."""
+    _, result = cut(case)
+    assert result.rest_slivers == 0, f"smallest rest angle {result.min_new_rest_angle_deg:.2f} deg"
 
 
 def test_the_checks_catch_a_broken_tissue():
