@@ -240,6 +240,26 @@ def test_without_an_incision_a_link_goes_to_the_nearest_candidate_on_any_side():
     assert pairs_of(model) == [tuple(sorted((keep, above)))]
 
 
+def test_a_link_is_never_carried_to_a_node_a_spring_joins_to_its_other_end():
+    """The link of the test above, without an incision: of the candidates (-1, 2.57) mm (3.4 mm
+    from the deleted node) and (4, 0.86) mm (5.3 mm), the nearer one is the kept node's lattice
+    neighbour. A link along that spring would pull the two together and crush the triangles on
+    it (fuzz case 4087729486, stroke 3: a triangle of 32.7 deg at rest flattened to 0.2 deg), so
+    the link goes to the farther one; with only the neighbour it is lost."""
+    model, editor = patch()
+    keep, gone = node_at(model, 0, 2 * ROWS[1] - ROWS[0]), node_at(model, -1, -ROWS[0])
+    report = linked_then_cut(model, editor, [(keep, gone)], [gone])
+    neighbour, farther = node_at(model, -1, ROWS[1]), node_at(model, 4, ROWS[0])
+    assert editor.spring_between(keep, neighbour) is not None and editor.spring_between(keep, farther) is None
+    x = model.points
+    assert np.linalg.norm(x[neighbour] - x[gone]) < np.linalg.norm(x[farther] - x[gone]) < 0.006
+    assert carry_links(editor, None, report, [neighbour, farther], reach=0.006) == 0
+    assert pairs_of(model) == [tuple(sorted((keep, farther)))]
+    model, editor = patch()
+    report = linked_then_cut(model, editor, [(keep, gone)], [gone])
+    assert carry_links(editor, None, report, [neighbour], reach=0.006) == 1 and model.link_count == 0
+
+
 def test_a_severed_link_is_carried_to_a_lip_on_each_side():
     """A link across the incision whose two nodes one edit deletes, (4, 0.86) and (3, -0.86) mm,
     goes to the lips nearest them on their own sides, (3, 2.57) and (2, -2.57) mm; a link between

@@ -12,7 +12,8 @@ directly. Otherwise the link joins the lip pair of the station nearest where the
 where no pair is near yet (the tip of the slit), it waits (``Incision.pending_links``) for the
 next station, and at the incision's end goes to the nearest pair. A link whose node a later edit
 deletes is carried to the node nearest the deleted one's rest position on its side of that
-edit's incision (``carry_links``), and is lost only where nothing is left on that side.
+edit's incision that no spring joins to the link's other end (``carry_links``), and is lost
+only where no such node is left.
 """
 
 from __future__ import annotations
@@ -146,31 +147,36 @@ def settle_pending_links(editor: TopologyEditor, inc: Incision, reach: float) ->
 def carry_links(editor: TopologyEditor, inc: Incision | None, report: EditReport, candidates, reach: float) -> int:
     """Carry the links an edit orphaned (one node deleted) or severed (both) to the live node of
     ``candidates`` nearest each deleted node's rest position, on the same side of ``inc``'s curve
-    (any side without an incision) and within ``reach`` [m]; returns how many were lost."""
+    (any side without an incision), within ``reach`` [m] and not joined by a spring to the
+    link's other end (a link pulls across a wound: along a spring it would crush the triangles
+    on it); returns how many were lost."""
     model = editor.model
     nodes = np.array(sorted({int(v) for v in candidates if model.active[int(v)]}), dtype=np.int64)
     sides = inc.project(model.points[nodes])[1] if inc is not None and len(nodes) else np.zeros(len(nodes))
     lost = 0
 
-    def taking(gone: int, exclude: int) -> int:
+    def taking(gone: int, partner: int) -> int:
+        """The node taking ``gone``'s end of a link whose other end is ``partner`` (-1: none yet)."""
         if not len(nodes):
             return -1
         x = model.points[gone]
         dist = np.linalg.norm(model.points[nodes] - x, axis=1)
-        ok = (dist <= reach) & (nodes != exclude)
+        ok = (dist <= reach) & (nodes != partner)
         if inc is not None:
             ok &= sides == inc.project(x[None])[1][0]
+        if partner >= 0:
+            ok &= np.array([editor.spring_between(partner, v) is None for v in nodes.tolist()])
         return int(nodes[np.flatnonzero(ok)[np.argmin(dist[ok])]]) if ok.any() else -1
 
     for keep, gone, force, smoothing in report.orphaned_links:
         new = taking(gone, keep)
-        if new < 0 or new == keep:
+        if new < 0:
             lost += 1
             continue
         editor.add_link(keep, new, force, smoothing)
     for i, j, force, smoothing in report.severed_links:
         a, b = taking(i, -1), taking(j, -1)
-        if a < 0 or b < 0 or a == b:
+        if a < 0 or b < 0 or a == b or editor.spring_between(a, b) is not None:
             lost += 1
             continue
         editor.add_link(a, b, force, smoothing)
