@@ -412,6 +412,18 @@ def _fit_segments(q, cum, tan, s, tol, u=None, iterations=40):
     return best[0], best[1], best[3]
 
 
+def _distinct_points(p, eps) -> list[int]:
+    """Indices of the points of ``p`` (n, 3) kept when each one closer than ``eps`` [m] to the
+    last one kept is dropped (the first is always kept)."""
+    if len(p) < 2 or (np.sqrt((np.diff(p, axis=0) ** 2).sum(axis=1)) > eps).all():
+        return list(range(len(p)))  # the usual path: no duplicates
+    keep = [0]
+    for i in range(1, len(p)):
+        if np.linalg.norm(p[i] - p[keep[-1]]) > eps:
+            keep.append(i)
+    return keep
+
+
 def fit_chain(path, tolerance, max_segments=1000):
     """Fit a C1 chain of cubic Beziers to a contact path (Schneider-style).
 
@@ -433,10 +445,7 @@ def fit_chain(path, tolerance, max_segments=1000):
     if int(max_segments) != max_segments or max_segments < 1:
         raise ValueError(f"max_segments must be a positive integer, got {max_segments}")
     eps = 1e-9 * tolerance          # consecutive points closer than this are duplicates
-    keep = [0]
-    for i in range(1, len(p)):
-        if np.linalg.norm(p[i] - p[keep[-1]]) > eps:
-            keep.append(i)
+    keep = _distinct_points(p, eps)
     if len(keep) <= 2:              # single / coincident points, or a two-point path
         return _straight(p[0], p[-1])
     q = p[keep].copy()
