@@ -195,13 +195,10 @@ class _VertexTable:
 
     def __init__(self, model, chart: RegionChart, region: Region, band: SlitBand, tolerance: float):
         nodes = sorted(region.nodes())
-        self.items: list = list(nodes)
-        xy = [chart.to2d(model.points[nodes])] if nodes else []
-        for run in band.runs:
-            for p in run:
-                self.items.append(p.node if p.node >= 0 else p)
-                xy.append(chart.to2d(p.rest)[None])
-        self.xy = np.concatenate(xy) if xy else np.zeros((0, 2))
+        band_points = [p for run in band.runs for p in run]
+        self.items: list = nodes + [p.node if p.node >= 0 else p for p in band_points]
+        rest = np.concatenate([model.points[nodes].reshape(-1, 3)] + [p.rest[None] for p in band_points])
+        self.xy = chart.to2d(rest)
         self.tolerance = tolerance
 
     def get(self, points: np.ndarray) -> list:

@@ -139,8 +139,8 @@ class Region:
 
     def nodes(self) -> set[int]:
         """Every node of the region's triangles."""
-        corners = self.model.triangle_table.column("corners")
-        return {int(v) for t in self.triangles for v in corners[t]}
+        tris = np.fromiter(self.triangles, dtype=np.int64, count=len(self.triangles))
+        return set(self.model.triangle_table.column("corners")[tris].ravel().tolist())
 
     def on_mesh_border(self, a: int, b: int) -> bool:
         """True if edge a-b has one live triangle in the whole mesh (a border of the tissue)."""
