@@ -363,3 +363,45 @@ def test_element_rates_follow_an_edit_that_makes_and_deletes_nodes_past_the_capa
     rates.update(editor.model_change(np.zeros((len(made), 3))))
     fresh = ElementRates(model).limit()
     assert rates.limit().step == pytest.approx(fresh.step, rel=1e-12)
+
+
+# ------------------------------------------------------------------ links that do not act
+@pytest.mark.parametrize("integrator", ["semi_implicit", "xpbd", "implicit_euler"])
+def test_links_limit_no_step_where_residual_stress_is_off(integrator):
+    """A solver without residual stress never applies the links, so they cannot shorten its
+    step: its limit is that of the same sheet without links (fuzz case 3495060231, XPBD without
+    residual stress: 1 -> 21 substeps after two strokes while the links the cut made did
+    nothing). With residual stress the stiff links (F / eps = 500 N/m) shorten it."""
+    def sheet(with_links: bool):
+        model = TissueModel.from_patch((0.01, 0.008), 0.002)
+        if with_links:
+            pairs = np.array([[0, 5], [3, 9], [7, 12]])
+            model.add_residual_links(pairs, np.full(3, 0.002), area=0.5 / model.material.residual_stress,
+                                     smoothing=1e-3)
+        return model
+
+    cls = INTEGRATORS[integrator]
+    bare = cls.step_limit(sheet(False)).step
+    assert cls.step_limit(sheet(True), links=False).step == bare
+    assert cls.limit_tracker(sheet(True), links=False).limit.step == bare
+    if integrator != "implicit_euler":  # no limit for its links: they are implicit
+        assert cls.step_limit(sheet(True)).step < bare
+    sims = [Simulator(sheet(w), dt=1e-3, device=DEVICE, integrator=integrator, residual_stress=False, gravity=None)
+            for w in (False, True)]
+    assert sims[1].step_limit.step == sims[0].step_limit.step and sims[1].substeps == sims[0].substeps
+
+
+def test_element_rates_without_links_follow_an_edit_that_makes_links():
+    """The tracker of a solver without residual stress stays equal to the limit of the sheet
+    without its links when an edit makes links (rated again at the nodes it touched)."""
+    model = TissueModel.from_patch((0.01, 0.008), 0.002)
+    rates = ElementRates(model, links=False)
+    before = rates.limit().step
+    editor = TopologyEditor(model)
+    editor.begin()
+    editor.make_links([(0, 5), (3, 9)], [0.002, 0.002])
+    editor.finish()
+    rates.update(editor.model_change(np.zeros((0, 3))))
+    assert model.link_count == 2
+    assert rates.limit().step == before
+    assert ElementRates(model).limit().step < before

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 import warp as wp
@@ -128,7 +129,8 @@ class Simulator:
         """The cut driver (``warp_cut.cut.driver.CutDriver``) when the simulator was made with
         ``cutting``, else None."""
         if cutting is not None:
-            self.cutter = make_cut_driver(model, cutting, device, INTEGRATORS[integrator].limit_tracker)
+            self.cutter = make_cut_driver(model, cutting, device,
+                                          partial(INTEGRATORS[integrator].limit_tracker, links=residual_stress))
             self.post_step_hooks.append(self.cutter.after_step)
 
     def close(self) -> None:

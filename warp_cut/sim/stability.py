@@ -95,14 +95,16 @@ def _link_stiffness(model, slots) -> np.ndarray:
     return links.column("force")[slots] / np.maximum(links.column("smoothing")[slots], 1e-30)
 
 
-def node_stiffness_sums(model) -> np.ndarray:
-    """Gershgorin row sums R_i [N/m], (node_count,): every spring and residual link at node i,
-    counted twice unless its other end is pinned, the foundation's k_f A_i once and the
-    bending's row sum (``bending_node_rows``)."""
+def node_stiffness_sums(model, links: bool = True) -> np.ndarray:
+    """Gershgorin row sums R_i [N/m], (node_count,): every spring and residual link at node i
+    (no link if not ``links``: a solver without residual stress), counted twice unless its
+    other end is pinned, the foundation's k_f A_i once and the bending's row sum
+    (``bending_node_rows``)."""
     sums = foundation_rows(model).astype(np.float64) + bending_node_rows(model)
     free = (~model.pinned).astype(np.float64)
-    links = model.link_table.live_slots()
-    for pairs, k in ((model.springs, model.stiffness), (model.links, _link_stiffness(model, links))):
+    slots = model.link_table.live_slots() if links else np.zeros(0, dtype=np.int64)
+    link_pairs = model.links if links else np.zeros((0, 2), dtype=np.int64)
+    for pairs, k in ((model.springs, model.stiffness), (link_pairs, _link_stiffness(model, slots))):
         for a, b in ((pairs[:, 0], pairs[:, 1]), (pairs[:, 1], pairs[:, 0])):
             np.add.at(sums, a, k * (1.0 + free[b]))
     return sums
@@ -181,8 +183,10 @@ class ElementRates:
 
     KINDS = ("triangles", "springs", "links", "foundation")
 
-    def __init__(self, model):
+    def __init__(self, model, links: bool = True):
         self.model = model
+        self.links = bool(links)
+        """Whether the residual links act (a solver without residual stress leaves them out)."""
         self.sums = np.zeros(0)
         self.on_triangles = np.zeros(0, dtype=np.int64)
         self.rates = {kind: np.zeros((2, 0)) for kind in self.KINDS}
@@ -191,7 +195,7 @@ class ElementRates:
         self.bend = bending_node_rows(model)
         nodes = model.node_table.live_slots()
         self._rate(nodes, model.triangle_table.live_slots(), model.spring_table.live_slots(),
-                   model.spring_table.live_slots(), model.link_table.live_slots())
+                   model.spring_table.live_slots(), self._acting(model.link_table.live_slots()))
 
     # ------------------------------------------------------------------ updates
     def update(self, change) -> None:
@@ -210,8 +214,12 @@ class ElementRates:
         corners = self.model.triangle_table.column("corners")[tris] if tris else np.zeros((0, 3), int)
         near = set(nodes.tolist()) | set(corners.ravel().tolist())
         self._rate(nodes, np.array(tris, np.int64), np.array(index.springs_at(near), np.int64),
-                   np.array(index.springs_at(nodes), np.int64), np.array(index.links_at(nodes), np.int64))
+                   np.array(index.springs_at(nodes), np.int64), self._acting(index.links_at(nodes)))
         self._rate_bending(change.hinge_nodes)
+
+    def _acting(self, links) -> np.ndarray:
+        """The link slots of ``links`` that act: all of them, or none without residual stress."""
+        return np.asarray(links if self.links else [], dtype=np.int64)
 
     def _rate_bending(self, nodes) -> None:
         """The bending's row sums again at ``nodes`` (of hinges an edit made or deleted)."""
@@ -395,7 +403,8 @@ class ElementRates:
         return int(nodes[np.argmax(self.sums[nodes] / model.masses[nodes])])
 
 
-def stable_time_step(model, *, include_damping: bool = True) -> StepLimit:
+def stable_time_step(model, *, include_damping: bool = True, links: bool = True) -> StepLimit:
     """The stable step of semi-implicit Euler for ``model`` (any node positions, see the module
-    docstring)."""
-    return ElementRates(model).limit(include_damping)
+    docstring); ``links``: whether its residual links act (False: a solver without residual
+    stress, which never applies them)."""
+    return ElementRates(model, links).limit(include_damping)

@@ -32,6 +32,7 @@ edit within capacity records nothing).
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 import warp as wp
@@ -81,7 +82,7 @@ class SolverBase:
         self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
         self.residual_stress = bool(residual_stress)
         self.links_expected = bool(links_expected)
-        self.limits: StepLimitTracker = limits or type(self).limit_tracker(model.model)
+        self.limits: StepLimitTracker = limits or type(self).limit_tracker(model.model, links=self.residual_stress)
         """The stable step (``limits.limit``), followed through edits."""
         self.collision = bool(collision)
         self.foundation_stiffness = float(model.foundation_stiffness)
@@ -115,14 +116,17 @@ class SolverBase:
 
     # ------------------------------------------------------------------ contract
     @classmethod
-    def step_limit(cls, model) -> StepLimit:
-        """The largest stable substep of this integrator for ``model`` (wherever its nodes are)."""
-        return stable_time_step(model)
+    def step_limit(cls, model, links: bool = True) -> StepLimit:
+        """The largest stable substep of this integrator for ``model`` (wherever its nodes are);
+        ``links``: whether the residual links act (``residual_stress``: a solver without it never
+        applies them, so they cannot limit its step)."""
+        return stable_time_step(model, links=links)
 
     @classmethod
-    def limit_tracker(cls, model) -> StepLimitTracker:
-        """``step_limit(model)``, followed edit by edit (by default worked out again each time)."""
-        return RecomputedLimit(model, cls.step_limit)
+    def limit_tracker(cls, model, links: bool = True) -> StepLimitTracker:
+        """``step_limit(model, links)``, followed edit by edit (by default worked out again each
+        time)."""
+        return RecomputedLimit(model, partial(cls.step_limit, links=links))
 
     def notify_model_changed(self, change: ModelChange) -> StepLimit:
         """Take a topology edit the device arrays now mirror: forget recorded launches,
@@ -132,7 +136,7 @@ class SolverBase:
         if change.step_limit is not None:
             self.limits = GivenLimit(change.step_limit)
         elif isinstance(self.limits, GivenLimit):  # nothing followed the edits: start afresh
-            self.limits = type(self).limit_tracker(self.model.model)
+            self.limits = type(self).limit_tracker(self.model.model, links=self.residual_stress)
         else:
             self.limits.update(change)
         return self.limits.limit

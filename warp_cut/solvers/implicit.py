@@ -45,12 +45,12 @@ class ImplicitEulerSolver(SolverBase):
                          links_expected=links_expected, limits=limits)
 
     @classmethod
-    def step_limit(cls, model) -> StepLimit:
+    def step_limit(cls, model, links: bool = True) -> StepLimit:
         """No stability limit (infinite step) for the springs, links and foundation; node and
         omega_max as for the explicit step. The bending, when the sheet has any, is explicit
         (the hinge forces at the step's start): its own limit (``ElementRates.bending_bounds``,
         semi-implicit Euler's formula with the implicit damping)."""
-        rates = ElementRates(model)
+        rates = ElementRates(model, links)
         explicit = rates.limit()
         (bend_mass, node), (bend_damping, _) = rates.bending_bounds()
         if bend_mass <= 0:

@@ -33,8 +33,8 @@ class IncrementalLimit:
     """The semi-implicit step's element bounds: an edit rates again the elements at the nodes
     it touched (``ElementRates.update``)."""
 
-    def __init__(self, model):
-        self.rates = ElementRates(model)
+    def __init__(self, model, links: bool = True):
+        self.rates = ElementRates(model, links)
         self.limit = self.rates.limit()
 
     def update(self, change: ModelChange) -> StepLimit:

@@ -27,10 +27,10 @@ class SemiImplicitSolver(SolverBase):
     """
 
     @classmethod
-    def limit_tracker(cls, model) -> IncrementalLimit:
-        """The element bounds of ``warp_cut.sim.stability``: an edit rates again only the
-        elements at the nodes it touched."""
-        return IncrementalLimit(model)
+    def limit_tracker(cls, model, links: bool = True) -> IncrementalLimit:
+        """The element bounds of ``warp_cut.sim.stability`` (the residual links' only if
+        ``links`` act): an edit rates again only the elements at the nodes it touched."""
+        return IncrementalLimit(model, links)
 
     def _extent(self) -> tuple:
         """Launches span the arrays' capacity (the kernels skip dead and unused slots), so an

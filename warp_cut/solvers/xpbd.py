@@ -26,18 +26,18 @@ class XPBDSolver(SolverBase):
     """
 
     @classmethod
-    def step_limit(cls, model) -> StepLimit:
-        """The limit of the explicit part alone: residual links, the foundation and the bending
-        (infinite without any).
+    def step_limit(cls, model, links: bool = True) -> StepLimit:
+        """The limit of the explicit part alone: residual links (if ``links`` act), the
+        foundation and the bending (infinite without any).
 
         XPBD damps after the solve, so the explicit prediction ``x + h v + h^2 f / m`` is not
         damped within its own step, and damping lowers the limit instead of raising it as in
         semi-implicit Euler: see ``xpbd_step_limits``.
         """
-        if not model.link_count and model.foundation_stiffness <= 0 and not model.hinge_table.live_count:
-            explicit = stable_time_step(model)
+        if not (links and model.link_count) and model.foundation_stiffness <= 0 and not model.hinge_table.live_count:
+            explicit = stable_time_step(model, links=links)
             return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
-        sums = node_stiffness_sums(_LinksOnly(model))
+        sums = node_stiffness_sums(_LinksOnly(model), links=links)
         rows = ~model.pinned & model.active & (sums > 0)
         if not rows.any():
             return StepLimit(math.inf, math.inf, -1, 0.0)
