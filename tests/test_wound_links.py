@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from warp_cut import Material, Simulator, TissueModel
 from warp_cut.cut.incision import Incision
 from warp_cut.cut.settings import CutSettings
-from warp_cut.cut.tolerances import LINK_REACH
+from warp_cut.cut.tolerances import LINK_REACH, LINK_TAKER_MASS
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.cut.wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
@@ -260,6 +260,23 @@ def test_a_link_is_never_carried_to_a_node_a_spring_joins_to_its_other_end():
     assert carry_links(editor, None, report, [neighbour], reach=0.006) == 1 and model.link_count == 0
 
 
+def test_a_link_is_not_carried_to_a_near_massless_node():
+    """A node the re-mesh made tiny (here: its mass set to 1 % of the others') takes no carried
+    link even when it is as near as any: a bundle of links on it crushed its triangles and shortened
+    the stable step (fuzz case 538663700: 1e-9-3e-7 kg nodes against a median near 1e-5 kg,
+    triangles flattened to 1.4 deg). The link goes to the nearest candidate of normal mass."""
+    model, editor = patch()
+    keep, gone = node_at(model, 0, 2 * ROWS[1] - ROWS[0]), node_at(model, -1, -ROWS[0])
+    report = linked_then_cut(model, editor, [(keep, gone)], [gone])
+    light, normal, far = node_at(model, -3, -ROWS[0]), node_at(model, 1, -ROWS[0]), node_at(model, 4, ROWS[0])
+    x = model.points
+    assert np.linalg.norm(x[light] - x[gone]) <= np.linalg.norm(x[normal] - x[gone])
+    model.node_table.set("masses", [light], [0.01 * model.masses[normal]])
+    assert carry_links(editor, None, report, [light, normal, far], reach=0.006) == 0
+    assert pairs_of(model) == [tuple(sorted((keep, normal)))]
+    assert LINK_TAKER_MASS * np.median(model.masses[[light, normal, far]]) > model.masses[light]
+
+
 def test_a_severed_link_is_carried_to_a_lip_on_each_side():
     """A link across the incision whose two nodes one edit deletes, (4, 0.86) and (3, -0.86) mm,
     goes to the lips nearest them on their own sides, (3, 2.57) and (2, -2.57) mm; a link between
@@ -351,6 +368,37 @@ def test_every_spring_the_cut_separates_leaves_its_link_whatever_the_event_inter
         u_cross = at + 0.006
         nearest = np.argmin(np.abs(u_cross[:, None] - np.array(inc.station_u)[None]), axis=1)
         assert pairs_of(model) == sorted(tuple(sorted((inc.left[k], inc.right[k]))) for k in nearest)
+
+
+@pytest.mark.parametrize("angle_deg", [15.0, 25.0])
+def test_a_spring_two_incisions_cross_keeps_one_link(angle_deg):
+    """A 12 mm cut between two rows, then a second one through its middle at a shallow angle:
+    near their crossing both lines cut the same springs (3-7 of them here). Each spring of the
+    uncut patch either line crosses keeps one link of sigma_r t L0: the wound's links sum to
+    sigma_r t over the distinct springs. The tension a spring held is released once; when each
+    incision linked the springs it crossed, the second linked those again (8-31 % more force
+    here; fuzz case 1491093012: 7 springs linked twice, a triangle crushed to 1.7 deg)."""
+    model, sim, y = cut_between_rows(0.0003, 0.0006)
+    cutter = sim.cutter
+    a = np.radians(angle_deg)
+    d = np.array([np.cos(a), np.sin(a), 0.0])
+    p0 = np.array([0.0, y, 0.0]) - 0.006 * d
+    cutter.start_incision(sim, p0, [0, 0, 1], 0.0006)
+    for t in np.linspace(0.0, 0.012, 41)[1:]:
+        cutter.extend_incision(sim, p0 + t * d)
+    cutter.end_incision(sim)
+    uncut = TissueModel.from_patch((0.02, 0.02), SPACING, pinned="border", material=MATERIAL)
+    along, _ = crossing_springs(uncut, y, -0.006, 0.006)
+    ends = uncut.points[uncut.springs]
+    rel = [ends[:, k] - p0 for k in (0, 1)]
+    side = [d[0] * r[:, 1] - d[1] * r[:, 0] for r in rel]  # of the second line
+    crosses = side[0] * side[1] < 0
+    hit = ends[:, 0] + (side[0] / np.where(crosses, side[0] - side[1], 1.0))[:, None] * (ends[:, 1] - ends[:, 0])
+    u = (hit - p0) @ d
+    across = np.flatnonzero(crosses & (u >= 0.0) & (u <= 0.012))
+    assert len(np.intersect1d(along, across)) >= 3 and sim.cutter.totals["lost_links"] == 0
+    distinct = np.union1d(along, across)
+    assert model.link_force.sum() == pytest.approx(SIGMA_T * uncut.rest_lengths[distinct].sum(), rel=1e-9)
 
 
 _GRID_SPRINGS = OriginalSprings(TissueModel.from_patch((0.05, 0.04), 0.002))

@@ -109,8 +109,8 @@ class Cutter:
         """Tool poses of the steps since the last cut event (where the blade entered)."""
         self._tip_before: np.ndarray | None = None
         """The tool's tip at the last cut event [m] (None: no tool then)."""
-        self._linked: dict[int, set] = {}
-        """Per incision (its index), the tissue's springs it has linked."""
+        self._linked: set[int] = set()
+        """The tissue's springs a cut has linked (once, however many incisions cross one)."""
         self.latency_ms = {name: [] for name in STAGES}
         self.totals = dict.fromkeys(_TOTALS, 0)
         self.new_triangles: set[int] = set()
@@ -239,7 +239,6 @@ class Cutter:
         inc.sweep_radius = float(sweep_radius)
         inc.entry = entry
         inc.starts_on_tissue = rest_point_on_tissue(self.model, rest, self.spacing)
-        self._linked[len(self.incisions)] = set()
         self.incisions.append(inc)
         self.current = inc
         return inc
@@ -453,7 +452,7 @@ class Cutter:
     def _wound_links(self, inc: Incision, piece: np.ndarray, cut: PieceCut) -> None:
         """The links of the tissue's springs ``piece`` crosses (the paper's links model)."""
         if self.originals is not None:
-            link_crossed_springs(self.editor, inc, self.originals, piece, self._linked[self.incisions.index(inc)])
+            link_crossed_springs(self.editor, inc, self.originals, piece, self._linked)
 
     def _free_islands(self, cut: PieceCut, keep: set[int]) -> None:
         """Remove the scraps this event trimmed off (but those holding a node of ``keep``) and

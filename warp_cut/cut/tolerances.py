@@ -48,6 +48,11 @@ spacing (30 deg drew lips together round bends the fill then refused more often)
 STATION_GAP = 0.75
 """Least distance [x s] between two lip stations along the curve."""
 
+LINK_TAKER_MASS = 0.2
+"""A node taking a carried link (``carry_links``) weighs at least this fraction of the median
+mass of the candidates [-]: a bundle of links on a near-massless node made by the re-mesh
+crushes its triangles and shortens the stable step."""
+
 LINK_REACH = 0.5
 """A separated spring's link goes to a lip pair within this [x s] along the curve of where the
 spring crossed, else it waits for the next station: stations are at most a spacing apart, so no later

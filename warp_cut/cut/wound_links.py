@@ -2,10 +2,11 @@
 later edit takes one of their nodes.
 
 Every spring of the tissue as it was built that an incision's rest curve crosses leaves one
-residual-stress link (paper Eq. 4: force sigma_r x thickness x the spring's rest length), so the
-links of a wound depend on the curve alone, not on how often the cut ran or how the region was
-re-meshed. The tissue's springs are kept in a grid of their rest midpoints
-(``OriginalSprings``), so an event finds those its piece of curve crosses in what it touches.
+residual-stress link (paper Eq. 4: force sigma_r x thickness x the spring's rest length), one
+however many incisions cross it (a spring's tension is released once), so the links of a wound
+depend on the curves alone, not on how often the cut ran or how the region was re-meshed.
+The tissue's springs are kept in a grid of their rest midpoints (``OriginalSprings``), so an
+event finds those its piece of curve crosses in what it touches.
 
 A crossed spring whose two nodes survive on either side of the curve is joined by its link
 directly. Otherwise the link joins the lip pair of the station nearest where the spring crossed;
@@ -22,7 +23,7 @@ import numpy as np
 
 from .chart import RegionChart
 from .incision import Incision
-from .tolerances import LINK_REACH
+from .tolerances import LINK_REACH, LINK_TAKER_MASS
 from .topology import EditReport, TopologyEditor
 
 __all__ = ["OriginalSprings", "link_crossed_springs", "settle_pending_links", "carry_links"]
@@ -93,7 +94,8 @@ def _crossings(springs: OriginalSprings, piece: np.ndarray, normal: np.ndarray):
 def link_crossed_springs(editor: TopologyEditor, inc: Incision, springs: OriginalSprings, piece: np.ndarray,
                          seen: set) -> None:
     """Make the links of the tissue's springs that ``piece`` (k, 3) [m] of ``inc``'s rest curve
-    crosses (each once per incision: ``seen`` holds those already linked): directly between
+    crosses (each once, whatever incision crossed it before: ``seen`` holds those already
+    linked; a spring's tension is released once): directly between
     its nodes where both live on either side of the curve, else between the lip pair nearest
     where it crossed, or pending until there is one. Part of an edit begun on ``editor``."""
     normal = inc.normal_at(inc.project(piece.mean(axis=0)[None])[0])[0]
@@ -144,14 +146,25 @@ def settle_pending_links(editor: TopologyEditor, inc: Incision, reach: float) ->
     editor.make_links(pairs, rest, once_per_pair=False)
 
 
+def _link_takers(model, candidates) -> np.ndarray:
+    """The live nodes of ``candidates`` that may take a carried link (sorted): those not much
+    lighter than the others (``LINK_TAKER_MASS``)."""
+    nodes = np.array(sorted({int(v) for v in candidates if model.active[int(v)]}), dtype=np.int64)
+    if not len(nodes):
+        return nodes
+    masses = model.masses[nodes]
+    return nodes[masses >= LINK_TAKER_MASS * np.median(masses)]
+
+
 def carry_links(editor: TopologyEditor, inc: Incision | None, report: EditReport, candidates, reach: float) -> int:
     """Carry the links an edit orphaned (one node deleted) or severed (both) to the live node of
     ``candidates`` nearest each deleted node's rest position, on the same side of ``inc``'s curve
     (any side without an incision), within ``reach`` [m] and not joined by a spring to the
     link's other end (a link pulls across a wound: along a spring it would crush the triangles
-    on it); returns how many were lost."""
+    on it); only candidates weighing at least ``LINK_TAKER_MASS`` of the candidates' median
+    mass take one. Returns how many were lost."""
     model = editor.model
-    nodes = np.array(sorted({int(v) for v in candidates if model.active[int(v)]}), dtype=np.int64)
+    nodes = _link_takers(model, candidates)
     sides = inc.project(model.points[nodes])[1] if inc is not None and len(nodes) else np.zeros(len(nodes))
     lost = 0
 
