@@ -103,7 +103,7 @@ def node_stiffness_sums(model, links: bool = True) -> np.ndarray:
     sums = foundation_rows(model).astype(np.float64) + bending_node_rows(model)
     free = (~model.pinned).astype(np.float64)
     slots = model.link_table.live_slots() if links else np.zeros(0, dtype=np.int64)
-    link_pairs = model.links if links else np.zeros((0, 2), dtype=np.int64)
+    link_pairs = model.link_table.column("pairs")[slots]
     for pairs, k in ((model.springs, model.stiffness), (link_pairs, _link_stiffness(model, slots))):
         for a, b in ((pairs[:, 0], pairs[:, 1]), (pairs[:, 1], pairs[:, 0])):
             np.add.at(sums, a, k * (1.0 + free[b]))

@@ -25,6 +25,7 @@ import numpy as np
 from ..mesh.checks import check_mesh
 from ..mesh.surfaces import flipped_triangles, surface_problems
 from ..sim.bending import hinges_of
+from ..sim.slots import member
 
 __all__ = ["surface_problems", "cut_problems", "flipped_triangles", "FOLD_CHECKS"]
 
@@ -122,7 +123,7 @@ def _flip_problems(sim, x, surface, first_new) -> list[str]:
     if not len(flipped):
         return out
     slots = model.triangle_table.live_slots()[flipped]
-    made = np.isin(slots, np.fromiter(sim.cutter.new_triangles, dtype=np.int64)) \
+    made = member(slots, np.fromiter(sim.cutter.new_triangles, dtype=np.int64)) \
         if sim.cutter is not None else np.zeros(len(slots), bool)
     new = slots >= (first_new if first_new is not None else np.iinfo(np.int64).max)
     for name, mask, what in (("tri_flipped_new", new, "made by the latest edit"),
