@@ -10,10 +10,14 @@ direction is regularised with a smoothing length ``eps`` [m]:
 so the magnitude is F for |d| >> eps and falls smoothly to 0 at |d| = 0. Its largest
 stiffness is F / eps, which the stable-step estimate uses. Its Jacobian
 ``df_i/dx_j = F / r (I - d d^T / r^2)`` with r = sqrt(|d|^2 + eps^2) is symmetric positive
-definite, which the implicit integrator uses as is.
+definite, which the implicit integrator uses as is. XPBD solves the links with its springs
+instead, as zero-length constraints of the secant stiffness F / r (``link_constraints``), so
+they do not bound its step.
 """
 
 import warp as wp
+
+from .xpbd import inverse_mass
 
 wp.set_module_options({"enable_backward": False})
 
@@ -46,3 +50,56 @@ def residual_link_forces(
     f = residual_force(positions[i], positions[j], link_force[k], link_smoothing[k])
     wp.atomic_add(forces, i, f)
     wp.atomic_sub(forces, j, f)
+
+
+@wp.kernel
+def link_valence(
+    link_indices: wp.array(dtype=wp.int32),
+    valence: wp.array(dtype=wp.float32),
+):
+    """valence (node_count,) += 1 at both ends of every live residual link (one thread each;
+    link_indices: (2 * link_count,), negative = deleted slot)."""
+    k = wp.tid()
+    i = link_indices[2 * k]
+    j = link_indices[2 * k + 1]
+    if i >= 0 and j >= 0:
+        wp.atomic_add(valence, i, 1.0)
+        wp.atomic_add(valence, j, 1.0)
+
+
+@wp.kernel
+def link_constraints(
+    positions: wp.array(dtype=wp.vec3),
+    link_indices: wp.array(dtype=wp.int32),
+    link_force: wp.array(dtype=wp.float32),
+    link_smoothing: wp.array(dtype=wp.float32),
+    node_mass: wp.array(dtype=wp.float32),
+    node_flags: wp.array(dtype=wp.int32),
+    valence: wp.array(dtype=wp.float32),
+    inv_h2: float,
+    delta: wp.array(dtype=wp.vec3),
+):
+    """delta (node_count,) [m] += the Jacobi corrections of the residual links (one thread each).
+
+    A link of magnitude F [N] and smoothing eps [m] pulls with ``F d / r``, r = sqrt(|d|^2 +
+    eps^2): a zero-length spring of the secant stiffness F / r at the predicted positions.
+    As a compliant constraint (compliance r / F): ``dx_i = w_i d / (n_i w_i + n_j w_j + r /
+    (F h^2))``, which is the explicit ``h^2 F d / (r m_i)`` while F h^2 w << r and never moves
+    the pair past each other however light the nodes (at most closing the gap).
+    """
+    k = wp.tid()
+    i = link_indices[2 * k]
+    j = link_indices[2 * k + 1]
+    force = link_force[k]
+    if i < 0 or j < 0 or force <= 0.0:
+        return
+    wi = inverse_mass(node_flags[i], node_mass[i])
+    wj = inverse_mass(node_flags[j], node_mass[j])
+    if wi + wj <= 0.0:
+        return
+    d = positions[j] - positions[i]
+    eps = link_smoothing[k]
+    r = wp.sqrt(wp.dot(d, d) + eps * eps)
+    g = d / (valence[i] * wi + valence[j] * wj + r * inv_h2 / force)
+    wp.atomic_add(delta, i, g * wi)
+    wp.atomic_sub(delta, j, g * wj)

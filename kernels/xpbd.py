@@ -2,21 +2,24 @@
 
 Per substep h:
 
-1. predict with the explicit forces f (residual links, and the foundation
-   ``-k_f A (x - X)`` when a scene asks for it) and gravity: ``x~ = x + h v + h^2 (f / m + g)``;
+1. predict with the explicit forces f (the foundation ``-k_f A (x - X)`` and the hinges when a
+   scene asks for them) and gravity: ``x~ = x + h v + h^2 (f / m + g)``;
 2. one Jacobi pass over the springs as distance constraints ``C = |x_j - x_i| - L0`` with
    compliance ``alpha = 1 / k``: ``dlambda = -C / (w~_i + w~_j + alpha / h^2)`` and
    ``dx_i = w_i dlambda grad_i C``, summed per node. The split weights ``w~ = n w`` (n: the
    node's count of live springs, w = 1/m, 0 for pinned nodes) make the parallel (Jacobi) sum
    stable: a node never moves more than its most violated constraint asks, however stiff
    the springs, while soft springs (k h^2 w << 1) give exactly the explicit spring force;
+   in the same pass the residual links, as zero-length springs of their secant stiffness F / r
+   (``warp_cut.kernels.residual.link_constraints``; the valence n counts them too);
 3. the tool pushes nodes out of the cylinder (as in the other integrators), then
    ``v = (x' - x) / h / (1 + h D / m)``: damping acts on the velocity after the solve, so a
    resting state (v = 0) is an equilibrium whatever D is, and a large D only slows motion.
 
-With lambda reset every substep (one iteration), the spring part is unconditionally stable;
-residual links and the foundation are explicit forces (their stiffnesses F / eps and k_f A bound
-the step, see ``warp_cut.sim.stability``). At equilibrium the one-iteration pass is a spring of stiffness
+With lambda reset every substep (one iteration), the spring and link part is unconditionally
+stable: a link's stiffness F / eps on a light lip node does not bound the step. The foundation
+and the hinges are explicit forces (their stiffnesses bound the step, see
+``warp_cut.sim.stability``). At equilibrium the one-iteration pass is a spring of stiffness
 ``k / (1 + k h^2 (n_i w_i + n_j w_j))``: XPBD converges to the sheet's stiffness as h -> 0.
 """
 

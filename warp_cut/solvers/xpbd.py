@@ -8,7 +8,7 @@ import numpy as np
 import warp as wp
 
 from ..kernels import xpbd as K
-from ..kernels.residual import residual_link_forces
+from ..kernels.residual import link_constraints, link_valence
 from ..kernels.xpbd import spring_valence
 from ..sim.stability import StepLimit, node_stiffness_sums, stable_time_step
 from .base import SolverBase
@@ -18,26 +18,28 @@ __all__ = ["XPBDSolver", "xpbd_step_limits"]
 
 
 class XPBDSolver(SolverBase):
-    """Springs as compliant distance constraints (compliance 1/k), Jacobi with split masses.
+    """Springs as compliant distance constraints (compliance 1/k) and residual links as
+    zero-length ones (compliance r / F), Jacobi with split masses.
 
-    Stable at any substep for the springs; the step only limits accuracy: far above the
-    explicit limit one Jacobi iteration does not converge the constraints, and the sheet
+    Stable at any substep for the springs and links; the step only limits accuracy: far above
+    the explicit limit one Jacobi iteration does not converge the constraints, and the sheet
     responds softer and more damped than its springs say.
     """
 
     @classmethod
     def step_limit(cls, model, links: bool = True) -> StepLimit:
-        """The limit of the explicit part alone: residual links (if ``links`` act), the
-        foundation and the bending (infinite without any).
+        """The limit of the explicit part alone: the foundation and the bending (infinite
+        without either). The springs and residual links are constraints, so ``links`` changes
+        nothing.
 
         XPBD damps after the solve, so the explicit prediction ``x + h v + h^2 f / m`` is not
         damped within its own step, and damping lowers the limit instead of raising it as in
         semi-implicit Euler: see ``xpbd_step_limits``.
         """
-        if not (links and model.link_count) and model.foundation_stiffness <= 0 and not model.hinge_table.live_count:
+        if model.foundation_stiffness <= 0 and not model.hinge_table.live_count:
             explicit = stable_time_step(model, links=links)
             return StepLimit(math.inf, math.inf, explicit.node, explicit.omega_max)
-        sums = node_stiffness_sums(_LinksOnly(model), links=links)
+        sums = node_stiffness_sums(_ExplicitPart(model), links=False)
         rows = ~model.pinned & model.active & (sums > 0)
         if not rows.any():
             return StepLimit(math.inf, math.inf, -1, 0.0)
@@ -51,24 +53,38 @@ class XPBDSolver(SolverBase):
     def _derive(self) -> None:
         super()._derive()
 
+        self._node_arrays()
         device = self.device
-        self._delta = wp.zeros(self.model.node_count, dtype=wp.vec3, device=device)
-        self._valence = wp.zeros(self.model.node_count, dtype=wp.float32, device=device)
-        self._stiffness_sum = wp.zeros(self.model.node_count, dtype=wp.float32, device=device)
         indices, _, stiffness, count = self.spring_arrays()
         if count:
             wp.launch(spring_valence, dim=self.threads(count), device=device,
                       inputs=[indices, stiffness, self.chunk, count, self._valence,
                               self._stiffness_sum])
+        if self._links_act():
+            wp.launch(link_valence, dim=self.model.link_count, device=device,
+                      inputs=[self.model.link_indices, self._valence])
+
+    def _node_arrays(self) -> None:
+        """The per-node work arrays, zeroed: made again only when the node count changes, so
+        launches recorded before an edit that keeps the counts read the valences it derives."""
+        n = self.model.node_count
+        if getattr(self, "_valence", None) is not None and self._valence.shape[0] == n:
+            self._valence.zero_()
+            self._stiffness_sum.zero_()
+            return
+        device = self.device
+        self._delta = wp.zeros(n, dtype=wp.vec3, device=device)
+        self._valence = wp.zeros(n, dtype=wp.float32, device=device)
+        self._stiffness_sum = wp.zeros(n, dtype=wp.float32, device=device)
+
+    def _links_act(self) -> bool:
+        return self.residual_stress and self.model.link_count > 0
 
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
         m = self.model
         n = m.node_count
         chunk, nt = self.chunk, self.threads(n)
         x_in, forces = state_in.positions, state_in.forces
-        if self.residual_stress and m.link_count:
-            seq.add(residual_link_forces, m.link_count,
-                    [x_in, m.link_indices, m.link_force, m.link_smoothing, forces])
         self.add_hinge_forces(seq, x_in, forces)
         gravity = self.gravity if self.gravity is not None else wp.vec3(0.0)
         seq.add(K.predict_kernel(self.gravity is not None, self.foundation), nt,
@@ -79,6 +95,10 @@ class XPBDSolver(SolverBase):
         seq.add(K.distance_constraints, self.threads(count),
                 [state_out.positions, indices, rest, stiffness, m.node_mass, m.node_flags,
                  self._valence, 1.0 / (h * h), chunk, count, self._delta])
+        if self._links_act():
+            seq.add(link_constraints, m.link_count,
+                    [state_out.positions, m.link_indices, m.link_force, m.link_smoothing,
+                     m.node_mass, m.node_flags, self._valence, 1.0 / (h * h), self._delta])
         seq.add(K.finish_kernel(self.collision), nt,
                 [x_in, m.node_mass, m.node_damping, m.node_flags, self._stiffness_sum,
                  self.tool_pose, h, chunk, n,
@@ -107,8 +127,8 @@ def xpbd_step_limits(omega2: np.ndarray, damping_rate: np.ndarray) -> np.ndarray
     return lo
 
 
-class _LinksOnly:
-    """A view of a model without its springs, for the explicit (link and foundation) part of
+class _ExplicitPart:
+    """A view of a model without its springs, for the explicit (foundation and hinge) part of
     the step limit."""
 
     def __init__(self, model):
