@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,6 +80,14 @@ class ToolPath:
                 and np.all(np.isfinite(self.times))):
             raise InputError("tool keyframes must be finite")
         self.radius = Tool(self.p0[0], self.p1[0], radius).radius
+        ends = np.stack([self.p0, self.p1], axis=1)
+        self.p0, self.p1 = ends[:, 0], ends[:, 1]  # views: one copy of the keyframes
+        self._ends = ends
+        """p0 and p1 of each keyframe [m], shape (k, 2, 3)."""
+        self._moves = np.diff(ends, axis=0)
+        """Their change from each keyframe to the next [m], shape (k - 1, 2, 3)."""
+        self._keys = self.times.tolist()
+        """The keyframe times [s] as floats, for a ``bisect`` lookup in every step."""
 
     def endpoints_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """The tool's end points at a time.
@@ -90,16 +99,15 @@ class ToolPath:
             p0 and p1 [m], each shape (3,).
         """
         # linear between keyframes, held outside (np.interp's rule), one lookup for all six
-        times = self.times
+        times = self._keys
         if t <= times[0] or len(times) == 1:
-            return self.p0[0].copy(), self.p1[0].copy()
-        if t >= times[-1]:
-            return self.p0[-1].copy(), self.p1[-1].copy()
-        k = int(np.searchsorted(times, t, side="right")) - 1
-        w = (t - times[k]) / (times[k + 1] - times[k])
-        p0 = self.p0[k] + w * (self.p0[k + 1] - self.p0[k])
-        p1 = self.p1[k] + w * (self.p1[k + 1] - self.p1[k])
-        return p0, p1
+            ends = self._ends[0].copy()
+        elif t >= times[-1]:
+            ends = self._ends[-1].copy()
+        else:
+            k = bisect_right(times, t) - 1
+            ends = self._ends[k] + (t - times[k]) / (times[k + 1] - times[k]) * self._moves[k]
+        return ends[0], ends[1]
 
     def pose_at(self, t: float) -> Tool:
         """The Tool at time ``t`` [s] (keyframes were validated once, so no checks here)."""
