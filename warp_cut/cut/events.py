@@ -18,8 +18,8 @@ class EventClock:
     def __init__(self):
         self.last = -math.inf
         """Time [s] of the last event."""
-        self.tip: np.ndarray | None = None
-        """The tool's tip at the last event [m] (None: none since the tool came)."""
+        self.tip: list[float] | None = None
+        """The tool's tip at the last event [m], three floats (None: none since the tool came)."""
 
     def due(self, time: float, dt: float, tip, interval: float | None, distance: float | None) -> bool:
         """Whether an event is due at the end of the step ending at ``time`` [s] (step ``dt``
@@ -30,12 +30,13 @@ class EventClock:
         if distance is not None and tip is None:
             self.reset()
             return False
+        tip = None if tip is None else np.asarray(tip, dtype=float).tolist()  # floats: math.dist's fast path
         if distance is None:
             if time - self.last < interval - 0.5 * dt:  # the step nearest
                 return False
         elif self.tip is not None and math.dist(tip, self.tip) < distance:
             return False
-        self.last, self.tip = time, None if tip is None else np.array(tip, dtype=float)
+        self.last, self.tip = time, tip
         return True
 
     def reset(self) -> None:
