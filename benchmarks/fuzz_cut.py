@@ -100,6 +100,7 @@ def _stroke_row(case, index, spec, stroke, result, sim, surface, wall) -> dict:
         "lip_dev_max_mm": 1e3 * result.lip_deviation_max, "lip_dev_median_mm": 1e3 * result.lip_deviation_median,
         "lip_nodes": result.lip_nodes, "slivers": result.slivers, "min_new_angle_deg": result.min_new_angle_deg,
         "rest_slivers": result.rest_slivers, "min_new_rest_angle_deg": result.min_new_rest_angle_deg,
+        "small_rest_triangles": result.small_rest_triangles, "min_new_rest_edge": result.min_new_rest_edge,
         "border_loops_added": result.border_loops_added,
         "latency_p50_ms": float(np.median(lat)) if len(lat) else float("nan"),
         "latency_max_ms": float(lat.max()) if len(lat) else float("nan"),

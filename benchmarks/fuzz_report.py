@@ -12,6 +12,7 @@ import numpy as np
 
 from warp_cut.cut.tolerances import MIN_ANGLE_DEG
 from warp_cut.mesh.geometry import SLIVER_DEG
+from warp_cut.verify.stroke_quality import SMALL_EDGE
 from warp_cut.verify.validity import FOLD_CHECKS
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -70,6 +71,9 @@ def _stats(rows) -> dict:
         "slivers": sum(r.get("slivers", 0) > 0 for r in ran),
         "rest_slivers": sum(r.get("rest_slivers", 0) > 0 for r in ran),
         "min_rest_angle": _smallest_rest_angle(ran),
+        "small_rest": sum(r.get("small_rest_triangles", 0) > 0 for r in ran),
+        "min_rest_edge": min(((r["min_new_rest_edge"], r["reproducer"]) for r in ran
+                              if np.isfinite(r.get("min_new_rest_edge", float("nan")))), default=(float("nan"), "")),
         "refused": sum(r.get("refused_events", 0) for r in ran),
         "refused_strokes": sum(r.get("refused_events", 0) > 0 for r in ran),
         "settled_cases": sum("settled_folded" in r for r in rows),
@@ -127,6 +131,9 @@ def _totals(rows, wall) -> list[str]:
         f"- strokes whose triangles go below {MIN_ANGLE_DEG:g} deg in the rest shape (the cut's promise; a re-mesh "
         f"defect, not the motion): **{s['rest_slivers']}**; the smallest rest angle of a triangle a stroke made: "
         f"{_fmt(s['min_rest_angle'][0])} deg" + (f" (`{s['min_rest_angle'][1]}`)" if s['min_rest_angle'][1] else ""),
+        f"- strokes that made small triangles (a rest edge under {SMALL_EDGE:g} spacings: the angles may be good, "
+        f"yet a small relative motion crushes them as the skin lies): {s['small_rest']}; the shortest rest edge: "
+        f"{_fmt(s['min_rest_edge'][0])} spacings" + (f" (`{s['min_rest_edge'][1]}`)" if s['min_rest_edge'][1] else ""),
         f"- cut events refused (the slit did not fit; the next event tried again, `refused_reason` in the "
         f"CSV says why): {s['refused']}, in {s['refused_strokes']} strokes",
         f"- after a case's last stroke, the skin settled {SETTLE_S} s with the tool gone ({s['settled_cases']} "

@@ -27,6 +27,7 @@ from warp_cut.verify.stroke_check import coverage_tolerance
 from warp_cut.verify.stroke_quality import (
     _over_skin,
     coverage,
+    new_rest_edges,
     new_rest_slivers,
     new_slivers,
     original_border,
@@ -285,3 +286,19 @@ def test_new_slivers_at_rest_and_as_the_skin_lies():
     assert new_rest_slivers(model, 0) == (2, pytest.approx(math.degrees(math.atan(0.2)), abs=1e-9))
     count, angle = new_rest_slivers(model, 3)
     assert count == 0 and math.isnan(angle)
+
+
+def test_small_triangles_among_those_a_stroke_made():
+    """Slot 0 the tissue's (left out), slot 1 the stroke's with edges 2, 1 and sqrt(5) mm,
+    slot 2 the stroke's with a 0.3 mm edge, slot 3 the stroke's with a 0.1 mm edge but deleted:
+    on a 2 mm spacing the shortest rest edge is 0.15 spacing, one triangle under 0.2."""
+    s = 0.002
+    pts = [[0, 0, 0], [0.002, 0, 0], [0, 0.001, 0], [0.0023, 0, 0], [0.0021, -0.002, 0],
+           [0.004, 0.004, 0], [0.0041, 0.004, 0], [0.004, 0.006, 0], [-0.002, -0.002, 0]]
+    model = wc.TissueModel.from_triangles(pts, [[0, 8, 1], [0, 1, 2], [1, 4, 3], [5, 6, 7]])
+    model.triangle_table.kill([3])
+    count, shortest = new_rest_edges(model, 1, s)
+    assert count == 1 and shortest == pytest.approx(0.0003 / s, rel=1e-9)
+    assert new_rest_edges(model, 2, s) == (1, pytest.approx(0.15, rel=1e-9))
+    count, shortest = new_rest_edges(model, 4, s)
+    assert count == 0 and math.isnan(shortest)

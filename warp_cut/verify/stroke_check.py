@@ -21,6 +21,7 @@ from .stroke_quality import (
     coverage,
     curve_coverage,
     lip_deviation,
+    new_rest_edges,
     new_rest_slivers,
     new_slivers,
     original_border,
@@ -57,6 +58,10 @@ class StrokeResult:
     rest_slivers: int = 0
     """Triangles the stroke made under ``MIN_ANGLE_DEG`` (20 deg) in the rest shape: the cut's promise broken."""
     min_new_rest_angle_deg: float = float("nan")
+    small_rest_triangles: int = 0
+    """Triangles the stroke made with a rest edge under ``SMALL_EDGE`` (0.2) spacings."""
+    min_new_rest_edge: float = float("nan")
+    """The shortest rest edge of a triangle the stroke made [x spacing]."""
     border_loops_added: int = 0
     latency_ms: list = field(default_factory=list)
     """Host time of each cut event of the stroke [ms] (sum of the Cutter's stages)."""
@@ -111,6 +116,8 @@ def _measure(sim, stroke, surface, result, before: dict, border_keys) -> None:
         stroke, model, before["nodes"])
     result.slivers, result.min_new_angle_deg = new_slivers(model, sim.positions, before["triangles"])
     result.rest_slivers, result.min_new_rest_angle_deg = new_rest_slivers(model, before["triangles"])
+    result.small_rest_triangles, result.min_new_rest_edge = new_rest_edges(model, before["triangles"],
+                                                                          surface.spacing)
     result.border_loops_added = border_loop_count(model) - before["loops"]
     result.unfilled_holes = max(0, result.border_loops_added - result.incisions)
     result.latency_ms = cutter.event_latency_ms()[before["latency"]:].tolist()

@@ -31,6 +31,9 @@ Definitions (the measuring stick for cuts on curved and irregular skin):
 * rest slivers - the same triangles with a smallest angle below 20 deg (``MIN_ANGLE_DEG``, what
   the cut promises) in the rest shape (``model.points``): a rest sliver is a re-mesh defect, a
   sliver only as the skin lies was crushed (or made crushed) by the motion.
+* small triangles - the same triangles with a rest edge shorter than 0.2 spacing
+  (``SMALL_EDGE``), and the shortest rest edge: the angles may be good, yet a small relative
+  motion crushes such a triangle as the skin lies.
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ from ..mesh.triangulate import border_loop_count as loops_of
 from ..mesh.triangulate import boundary_edges
 
 __all__ = ["original_border", "wound_edges", "skin_at_rest", "in_plane", "coverage", "curve_coverage", "lip_deviation",
-           "new_slivers", "new_rest_slivers", "segment_distances", "border_loop_count"]
+           "new_slivers", "new_rest_slivers", "new_rest_edges", "segment_distances", "border_loop_count"]
 
 def _keys(pairs: np.ndarray, n: int) -> np.ndarray:
     p = np.sort(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), axis=1)
@@ -223,6 +226,24 @@ def new_rest_slivers(model, first_new_triangle: int) -> tuple[int, float]:
     """``new_slivers`` in the rest shape (``model.points``) against the cut's promise,
     ``MIN_ANGLE_DEG``: (count under it, smallest rest angle [deg])."""
     return new_slivers(model, model.points, first_new_triangle, below=MIN_ANGLE_DEG)
+
+
+SMALL_EDGE = 0.2
+"""A triangle a stroke made with a rest edge shorter than this [x spacing] is small: a relative
+motion of its nodes that size crushes it as the skin lies, and its nodes are light."""
+
+
+def new_rest_edges(model, first_new_triangle: int, spacing: float) -> tuple[int, float]:
+    """(count of the live triangles made since triangle slot ``first_new_triangle`` with a rest
+    edge shorter than ``SMALL_EDGE`` spacings, their shortest rest edge [x ``spacing``]; nan if
+    none was made)."""
+    slots = model.triangle_table.live_slots()
+    rows = np.flatnonzero(slots >= first_new_triangle)
+    if not len(rows):
+        return 0, float("nan")
+    corners = model.points[model.triangles[rows]]
+    shortest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).min(axis=1) / spacing
+    return int((shortest < SMALL_EDGE).sum()), float(shortest.min())
 
 
 def border_loop_count(model) -> int:
