@@ -82,7 +82,7 @@ class SolverBase:
         self.gravity = None if gravity is None else wp.vec3(*np.asarray(gravity, dtype=np.float32))
         self.residual_stress = bool(residual_stress)
         self.links_expected = bool(links_expected)
-        self.limits: StepLimitTracker = limits or type(self).limit_tracker(model.model, links=self.residual_stress)
+        self.limits: StepLimitTracker = limits or self._new_limit_tracker()
         """The stable step (``limits.limit``), followed through edits."""
         self.collision = bool(collision)
         self.foundation_stiffness = float(model.foundation_stiffness)
@@ -136,10 +136,20 @@ class SolverBase:
         if change.step_limit is not None:
             self.limits = GivenLimit(change.step_limit)
         elif isinstance(self.limits, GivenLimit):  # nothing followed the edits: start afresh
-            self.limits = type(self).limit_tracker(self.model.model, links=self.residual_stress)
+            self.limits = self._new_limit_tracker()
         else:
             self.limits.update(change)
         return self.limits.limit
+
+    def _new_limit_tracker(self) -> StepLimitTracker:
+        """A tracker of this integrator's stable step for the bound model, counting the residual
+        links only if this solver applies them."""
+        return type(self).limit_tracker(self.model.model, links=self.residual_stress)
+
+    def _links_act(self) -> bool:
+        """Whether this solver applies residual links now (residual stress on and the model has
+        some)."""
+        return self.residual_stress and self.model.link_count > 0
 
     def clear_tool_stats(self) -> None:
         """Zero the tool statistics (before the first substep of a step)."""

@@ -72,7 +72,7 @@ class ImplicitEulerSolver(SolverBase):
         v = self._vectors
         x_in, forces = state_in.positions, state_in.forces
         indices, rest, stiffness, count = self.spring_arrays()
-        links = self.residual_stress and m.link_count > 0
+        links = self._links_act()
         h2, tol2 = h * h, self.cg_tolerance ** 2
         seq.add(K.cg_reset, self.cg_iterations + 1, [self.cg])
         seq.add(K.zero_vectors, nt, [chunk, n, v["diagonal"]])

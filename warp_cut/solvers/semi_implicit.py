@@ -41,7 +41,7 @@ class SemiImplicitSolver(SolverBase):
         return (m.node_mass.shape[0], indices.shape[0] // 2, indices.ptr, self._links_on(), m.hinge_indices.ptr)
 
     def _links_on(self) -> bool:
-        return self.residual_stress and (self.model.link_count > 0 or self.links_expected)
+        return self._links_act() or (self.residual_stress and self.links_expected)
 
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
         m = self.model

@@ -77,9 +77,6 @@ class XPBDSolver(SolverBase):
         self._valence = wp.zeros(n, dtype=wp.float32, device=device)
         self._stiffness_sum = wp.zeros(n, dtype=wp.float32, device=device)
 
-    def _links_act(self) -> bool:
-        return self.residual_stress and self.model.link_count > 0
-
     def _record(self, seq: LaunchSequence, state_in, state_out, h: float) -> None:
         m = self.model
         n = m.node_count
@@ -92,13 +89,14 @@ class XPBDSolver(SolverBase):
                  gravity, m.rest_positions, m.node_area, self.foundation_stiffness, h, chunk, n,
                  state_out.positions])
         indices, rest, stiffness, count = self.spring_arrays()
+        inv_h2 = 1.0 / (h * h)
         seq.add(K.distance_constraints, self.threads(count),
                 [state_out.positions, indices, rest, stiffness, m.node_mass, m.node_flags,
-                 self._valence, 1.0 / (h * h), chunk, count, self._delta])
+                 self._valence, inv_h2, chunk, count, self._delta])
         if self._links_act():
             seq.add(link_constraints, m.link_count,
                     [state_out.positions, m.link_indices, m.link_force, m.link_smoothing,
-                     m.node_mass, m.node_flags, self._valence, 1.0 / (h * h), self._delta])
+                     m.node_mass, m.node_flags, self._valence, inv_h2, self._delta])
         seq.add(K.finish_kernel(self.collision), nt,
                 [x_in, m.node_mass, m.node_damping, m.node_flags, self._stiffness_sum,
                  self.tool_pose, h, chunk, n,

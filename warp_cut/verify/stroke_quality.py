@@ -209,16 +209,19 @@ def lip_deviation(stroke, model, first_new_node: int) -> tuple[float, float, int
     return float(dist.max()), float(np.median(dist)), int(len(nodes))
 
 
+def _made_since(model, first_new_triangle: int) -> np.ndarray:
+    """(t, 3) node slots of the live triangles in slots from ``first_new_triangle`` on."""
+    return model.triangles[model.triangle_table.live_slots() >= first_new_triangle]
+
+
 def new_slivers(model, positions, first_new_triangle: int, below: float = SLIVER_DEG) -> tuple[int, float]:
     """(count of triangles with a smallest angle under ``below`` [deg], smallest angle [deg])
     among the live triangles made since triangle slot ``first_new_triangle``, at ``positions``
     (n, 3) [m] (nan angle if none)."""
-    table = model.triangle_table
-    slots = table.live_slots()
-    rows = np.flatnonzero(slots >= first_new_triangle)
-    if not len(rows):
+    triangles = _made_since(model, first_new_triangle)
+    if not len(triangles):
         return 0, float("nan")
-    angles = triangle_min_angles(positions, model.triangles[rows])
+    angles = triangle_min_angles(positions, triangles)
     return int((angles < below).sum()), float(angles.min())
 
 
@@ -237,11 +240,10 @@ def new_rest_edges(model, first_new_triangle: int, spacing: float) -> tuple[int,
     """(count of the live triangles made since triangle slot ``first_new_triangle`` with a rest
     edge shorter than ``SMALL_EDGE`` spacings, their shortest rest edge [x ``spacing``]; nan if
     none was made)."""
-    slots = model.triangle_table.live_slots()
-    rows = np.flatnonzero(slots >= first_new_triangle)
-    if not len(rows):
+    triangles = _made_since(model, first_new_triangle)
+    if not len(triangles):
         return 0, float("nan")
-    corners = model.points[model.triangles[rows]]
+    corners = model.points[triangles]
     shortest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).min(axis=1) / spacing
     return int((shortest < SMALL_EDGE).sum()), float(shortest.min())
 
