@@ -31,6 +31,7 @@ from warp_cut.mesh.surfaces import cylinder, dome, flat_grid, jittered_delaunay,
 from warp_cut.mesh.triangulate import border_loop_count
 from warp_cut.sim import strokes
 from warp_cut.verify.stroke_check import run_stroke
+from warp_cut.verify.stroke_quality import new_rest_edges
 from warp_cut.verify.validity import cut_problems
 
 SPACING = 0.002
@@ -1538,3 +1539,22 @@ def test_a_neck_the_fill_cannot_cut_through_is_left_as_it_was(monkeypatch):
     assert any(tried)  # the neck was tried
     assert "a test refusing the neck" not in sim.cutter.skipped
     assert over_neck.all()
+
+
+def test_a_zigzags_sharp_corners_leave_no_small_triangle():
+    """A thick tool (r 5.3 mm on a 2.7 mm jittered cylinder mesh, 66 degrees, gravity and the
+    foundation on) cutting a zigzag that turns 108 degrees at each corner: on the inside of a
+    corner the lip lines of the legs before and after it meet, and a new lip made 0.07 spacings
+    from the one before left triangles with rest edges down to 0.01 spacings (fuzz seed 1). A lip
+    that near an earlier lip of its side is that lip (``LIP_MATCH``): no triangle the stroke made
+    has a rest edge under 0.2 spacings, and the stroke keeps the cut's guarantees."""
+    surface = cylinder(0.014364956389277947, 0.044462654021712025, 2.0 * math.pi, 0.002695077962205331, jitter=0.4,
+                       seed=2045298393)
+    sim = supported_sim(surface, 0.03248200095958432)
+    first = sim.model.triangle_table.count
+    path = strokes.zigzag([-0.002706384350793341, 0.0027240781753918595], 1.425310623465873, 0.02852964074385817,
+                          0.007446934328652736, 0.02128180382321027)
+    tool = (66.49447139966853, 0.005285331417758956, 0.001856389369619768, 0.01213434983831525, 0.03527155013801858)
+    assert_cut_guarantees(sim, surface, cut_stroke(sim, surface, path, tool), joins=False)
+    small, shortest = new_rest_edges(sim.model, first, surface.spacing)
+    assert small == 0, f"{small} triangles with a rest edge under 0.2 spacings (shortest {shortest:.3f})"

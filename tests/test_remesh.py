@@ -7,7 +7,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from warp_cut.cut.remesh import _match_lips
+from warp_cut.cut.remesh import _match_bend_lips, _match_lips
+from warp_cut.cut.tolerances import LIP_MATCH
 from warp_cut.cut.slit_band import CUT_BEFORE, TIP, BandPoint, SlitBand
 
 S = 2e-3
@@ -55,3 +56,31 @@ def test_one_node_stands_in_for_one_lip_and_a_dead_node_for_none():
     _match_lips(b, model_with(points, active=[True, True, True, False]), {2, 3}, 0.15 * S)
     nodes = [p.node for p in b.runs[0] if p.station == 0]
     assert nodes.count(2) == 1 and 3 not in nodes
+
+
+def bend_incision(left, right) -> SimpleNamespace:
+    """The two lists ``_match_bend_lips`` reads: each station's left and right lip nodes."""
+    return SimpleNamespace(left=list(left), right=list(right))
+
+
+def test_a_lip_at_the_inside_of_a_bend_is_the_earlier_lip_of_its_side():
+    """The slit bends right after its pair (nodes 0, 1): the new right lip lies 0.1 s from the
+    pair's right node 1, which it becomes, though the band closes onto that node (the inside
+    of the bend collapses onto one node); the left lip, on the outside, stays new."""
+    points = [[0.0, 2.5e-4, 0], [0.002 - 0.1 * S, -2.5e-4, 0]]
+    b = band()
+    assert _match_bend_lips(b, bend_incision([0], [1]), model_with(points), LIP_MATCH * S) == 1
+    run = b.runs[0]
+    assert (run[3].node, run[3].station, run[3].side) == (1, 0, -1)
+    np.testing.assert_allclose(run[3].rest, points[1])
+    assert run[1].node == -1
+
+
+def test_bend_matching_keeps_to_its_side_and_its_reach():
+    """An earlier lip of the other side next to a new lip is never that lip (it would close the
+    slit: lips across a thin tool's slit lie nearer than ``LIP_MATCH``), one just beyond reach
+    leaves the lip new, and a station with no lip on a side (-1) matches nothing."""
+    points = [[0.002, 2.5e-4 + 0.1 * S, 0], [0.002 + 1.01 * LIP_MATCH * S, 2.5e-4, 0]]
+    b = band()
+    assert _match_bend_lips(b, bend_incision([-1, 1], [0, -1]), model_with(points), LIP_MATCH * S) == 0
+    assert [p.node for p in b.runs[0] if p.station == 0] == [-1, -1]

@@ -41,8 +41,9 @@ from .fill import Fill
 from .incision import Incision
 from .layout import Layout, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
 from .region import Region
-from .slit_band import EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand
+from .slit_band import CUT_BEFORE, EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand
 from .tolerances import (
+    LIP_MATCH,
     MAX_GROWTH,
     MERGE,
     MIN_ANGLE_DEG,
@@ -132,6 +133,7 @@ def _lay_out_piece(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, n
     chart = RegionChart.of_triangles(model.points[corners])
     if old_tip is not None:
         clear_of_old_tip(band, old_tip, inc, chart, OLD_END_CLEARANCE * s)
+    _match_bend_lips(band, inc, model, LIP_MATCH * s)
     try:
         layout, growth = _fill(model, inc, region, band, chart, protected)
     except SlitDoesNotFit:  # node matching, then once more: a lip beside a node of the slit is that node
@@ -202,19 +204,30 @@ def _check_slit(layout: Layout, band: SlitBand) -> None:
         raise SlitDoesNotFit(f"the fill does not lay the slit's points {missing} once each")
 
 
-def _match_lips(band: SlitBand, model, nodes: set[int], reach: float) -> int:
-    """Node matching (the paper's Alg. 2): a new lip of ``band`` within ``reach`` [m] of one of
-    ``nodes`` (the slit's nodes near, e.g. round a sharp bend, where the lip lines of the legs
-    before and after it meet) is that node, each node one lip at most. Returns the lips matched.
-    Tried when a fill does not fit: a node a little off the lip line makes a less even fill."""
-    live = np.array(sorted(v for v in nodes if model.active[v]), dtype=np.int64)
+def _match_bend_lips(band: SlitBand, inc: Incision, model, reach: float) -> int:
+    """Node matching round a bend: a new lip of ``band`` within ``reach`` [m] of an earlier lip
+    of its own side is that lip. On the inside of a sharp bend the lip lines of the legs before
+    and after it meet, and two lips there a sliver apart would leave triangles that small
+    (``LIP_MATCH``). Returns the lips matched."""
+    return sum(_match_lips(band, model, set(lips), reach, side=side) for side, lips in ((1, inc.left), (-1, inc.right)))
+
+
+def _match_lips(band: SlitBand, model, nodes: set[int], reach: float, side: int | None = None) -> int:
+    """Node matching (the paper's Alg. 2): a new lip of ``band`` (of ``side``; None: either)
+    within ``reach`` [m] of one of ``nodes`` (the slit's nodes near, e.g. round a sharp bend,
+    where the lip lines of the legs before and after it meet) is that node, each node one lip at
+    most. Returns the lips matched. Tried when a fill does not fit: a node a little off the lip
+    line makes a less even fill."""
+    live = np.array(sorted(v for v in nodes if v >= 0 and model.active[v]), dtype=np.int64)
     if not len(live):
         return 0
     matched = 0
-    used = {p.node for run in band.runs for p in run if p.node >= 0}
+    # a lip of one side may be that side's lip the band closes onto (the inside of the bend)
+    used = {p.node for run in band.runs for p in run if p.node >= 0 and not (side and p.station == CUT_BEFORE
+                                                                             and p.side == side)}
     for run in band.runs:
         for k, p in enumerate(run):
-            if p.node >= 0 or p.station < 0:
+            if p.node >= 0 or p.station < 0 or side is not None and p.side != side:
                 continue
             d = np.linalg.norm(model.points[live] - p.rest, axis=1)
             j = int(np.argmin(d))

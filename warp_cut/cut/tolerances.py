@@ -90,6 +90,11 @@ MERGE = 0.1
 """A new point of the slit's outline (a lip, where a lip line meets a border) within this [x s]
 of a node next to it on the outline is left out: the outline goes straight on to the node."""
 
+LIP_MATCH = 0.3
+"""A new lip within this [x s] of an earlier lip of its own side is that lip (node matching
+round a bend, ``remesh._match_bend_lips``): on the inside of a sharp bend the lip lines of the
+legs before and after it meet, and lips a sliver apart leave triangles that small."""
+
 MATCH = 1e-4
 """A vertex of the region's new outline (GEOS's result) within this [x s] of a node or of a band
 point is that node or point: the polygon operations return their input vertices only to
