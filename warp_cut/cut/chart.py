@@ -18,7 +18,7 @@ import numpy as np
 
 from ..mesh.geometry import cross3, plane_frame
 
-__all__ = ["RegionChart", "PiecewiseLinearMap", "barycentric"]
+__all__ = ["RegionChart", "PiecewiseLinearMap", "barycentric", "chart_min_angles"]
 
 
 class RegionChart:
@@ -124,3 +124,13 @@ class PiecewiseLinearMap:
         """Each field interpolated at chart points (m, 2): a list of (m, d) arrays."""
         tri, lam = self.locate(points)
         return [np.einsum("mk,mkd->md", lam, f[tri]) for f in self.fields]
+
+
+def chart_min_angles(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Smallest angle [deg] of each triangle (t, 3) of chart points (n, 2), shape (t,) (a
+    triangle with a zero-length edge has 0)."""
+    corners = np.asarray(points, dtype=np.float64).reshape(-1, 2)[np.asarray(triangles).reshape(-1, 3)]
+    ahead = corners[:, [1, 2, 0]] - corners
+    behind = corners[:, [2, 0, 1]] - corners
+    cross = ahead[..., 0] * behind[..., 1] - ahead[..., 1] * behind[..., 0]
+    return np.degrees(np.arctan2(np.abs(cross), (ahead * behind).sum(axis=2))).min(axis=1)

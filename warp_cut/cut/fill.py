@@ -6,7 +6,8 @@ the loops (their edges kept), refined by inserting points until no triangle has 
 the target (Delaunay refinement, Ruppert / Chew), is made by CDT (PythonCDT: robust predicates,
 C++; MPL-2.0). Refinement may split a constraint edge that a new point encroaches; which edges it
 split is reported, so that the caller can refuse splits of edges it shares with the mesh outside
-the region (it then grows the region and fills again).
+the region (it then grows the region and fills again). Inserted points closer together than the
+caller needs are taken out again where the fill keeps its angle without them (``coarsen``).
 
 Shapes: points (n, 2) [m]; triangles (t, 3) indices into the returned points, counter-clockwise.
 """
@@ -19,6 +20,8 @@ import numpy as np
 import pythoncdt as cdt
 
 from ..errors import InputError
+from .chart import chart_min_angles
+from .coarsen import coarsen
 
 __all__ = ["Fill", "fill_region"]
 
@@ -55,12 +58,15 @@ def _constraint_edges(edges) -> np.ndarray:
 
 
 def fill_region(points: np.ndarray, edges, *, min_angle_deg: float, min_edge: float,
-                max_points: int = 2000) -> Fill:
+                max_points: int = 2000, coarsen_below: float | None = None) -> Fill:
     """Fill the region bounded by the closed loops ``edges`` make ((a, b) pairs of indices into
     ``points`` (n, 2) [m], in any direction; points on no edge are inside the region and are
     kept) with counter-clockwise triangles
     whose angles are at least ``min_angle_deg`` where the outline allows, inserting at most
-    ``max_points`` points, none making an edge shorter than ``min_edge`` [m].
+    ``max_points`` points, none making an edge shorter than ``min_edge`` [m]; then the inserted
+    points with an edge shorter than ``coarsen_below`` [m] are taken out where the triangles
+    round them can be re-made at ``min_angle_deg`` without them (``coarsen.coarsen``; None:
+    none are).
 
     Raises:
         InputError: The loops do not bound a region (no triangle left), or cross where they
@@ -87,10 +93,22 @@ def fill_region(points: np.ndarray, edges, *, min_angle_deg: float, min_edge: fl
     split = {tuple(sorted((e.v1, e.v2))) for originals in tri.piece_to_originals.values() for e in originals}
     unrefined = len(tri.find_unrefined_triangles(cdt.RefinementCriterion.SMALLEST_ANGLE,
                                                  cdt.deg_to_rad(min_angle_deg)))
+    if coarsen_below is not None and len(out) > len(points):
+        count = len(out)
+        out, triangles = coarsen(out, triangles, len(points), coarsen_below, min_angle_deg)
+        if len(out) < count:
+            split -= _edges_of(triangles)  # an edge whose split points all went is whole again
+            unrefined = int((chart_min_angles(out, triangles) < min_angle_deg).sum())
     reasons = {name: getattr(why, name) for name in ("short_edge_triangles", "circumcenter_outside",
                                                       "circumcenter_on_vertex", "sharp_fixed_corner", "short_edges",
                                                       "split_vertex_invalid") if getattr(why, name)}
     return Fill(out, triangles, {(int(a), int(b)) for a, b in split}, unrefined, len(points), reasons)
+
+
+def _edges_of(triangles: np.ndarray) -> set:
+    """The sorted vertex pairs of the triangles' edges."""
+    pairs = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    return {(int(a), int(b)) for a, b in pairs}
 
 
 def _counter_clockwise(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

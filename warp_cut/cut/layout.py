@@ -23,7 +23,7 @@ from .fill import Fill, fill_region
 from .incision import Incision
 from .region import Region
 from .slit_band import BandPoint, SlitBand
-from .tolerances import CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
+from .tolerances import COARSEN, CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
 
 __all__ = ["Layout", "NewPoint", "SlitDoesNotFit", "lay_out", "matched_lips", "sharp_corners", "corner_cut",
            "edge_of"]
@@ -115,7 +115,8 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
     chart_points = _chart_points(ids, points, model, chart)
     edges = [(where[a], where[b]) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1]) if a != b]
     try:
-        fill = fill_region(chart_points, edges, min_angle_deg=REFINE_ANGLE_DEG, min_edge=MIN_EDGE * inc.spacing)
+        fill = fill_region(chart_points, edges, min_angle_deg=REFINE_ANGLE_DEG, min_edge=MIN_EDGE * inc.spacing,
+                           coarsen_below=COARSEN * inc.spacing)
     except InputError as err:
         raise SlitDoesNotFit(str(err)) from err
     fixed = {(min(a, b), max(a, b)) for a, b in region.outline() if not region.on_mesh_border(a, b)}

@@ -30,11 +30,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..mesh.geometry import triangle_min_angles
 from ..sim.collision import pushed_out
 from ..sim.control import Tool
 from .beside import Beside, strip_polygons
-from .chart import PiecewiseLinearMap, RegionChart
+from .chart import PiecewiseLinearMap, RegionChart, chart_min_angles
 from .classes import NodeClass, SpringClass
 from .event_band import add_old_tip, clear_of_old_tip, clearance, edge_clearance, event_band
 from .fill import Fill
@@ -177,8 +176,7 @@ def _fill(model, inc: Incision, region: Region, band: SlitBand, chart: RegionCha
 
 def _smallest_angle(fill: Fill) -> float:
     """Smallest angle [deg] of the fill's triangles in its chart."""
-    flat = np.column_stack([fill.points, np.zeros(len(fill.points))])
-    return float(triangle_min_angles(flat, fill.triangles).min()) if len(fill.triangles) else 180.0
+    return float(chart_min_angles(fill.points, fill.triangles).min()) if len(fill.triangles) else 180.0
 
 
 def _check_slit(layout: Layout, band: SlitBand) -> None:

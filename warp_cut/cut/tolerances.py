@@ -100,6 +100,12 @@ MATCH = 1e-4
 point is that node or point: the polygon operations return their input vertices only to
 rounding, and a corner cut off a band moves them by more than the rounding grid."""
 
+COARSEN = 0.25
+"""A point the refinement inserted with an edge shorter than this [x s] is taken out again where
+the triangles round it can be re-made at ``REFINE_ANGLE_DEG`` without it (``coarsen``): round a
+thin slit's tip the refinement's splits cascade down to the slit's width, and small triangles
+are crushed by small relative motions of their nodes (slivers as the skin lies)."""
+
 MIN_EDGE = 0.01
 """Shortest edge the refinement may make [x s]."""
 

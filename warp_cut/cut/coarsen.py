@@ -1,0 +1,127 @@
+"""Coarsening a refined fill: removing the points Delaunay refinement inserted closer together
+than it needed.
+
+Refinement splits a constraint edge that a point encroaches, and (in PythonCDT) a point across
+a narrow opening encroaches too: round the narrow wedge at a thin slit's tip the split points on
+one side encroach the other side's pieces, and the splits cascade down to the opening's width
+(rest edges of 0.04 spacings, where nothing in the tissue needs them). ``coarsen`` takes such
+points out again, one at a time, shortest edge first, wherever the triangles round the point
+can be re-made without it at the target angle: the fill keeps its guarantee, with fewer and
+larger triangles.
+
+Shapes: points (n, 2) [m]; triangles (t, 3) indices into points, counter-clockwise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pythoncdt as cdt
+
+from .chart import chart_min_angles
+
+__all__ = ["coarsen"]
+
+
+def coarsen(points: np.ndarray, triangles: np.ndarray, first_inserted: int, short: float,
+            min_angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """The fill (``points`` (n, 2) [m], counter-clockwise ``triangles`` (t, 3)) without the
+    inserted points (index >= ``first_inserted``) that have an edge shorter than ``short`` [m]
+    and whose star can be re-triangulated with every angle at least ``min_angle_deg``. A point on
+    the outline goes only where it splits a straight piece of it (its two outline edges in
+    line): the outline stays what it was. Returns the points left (the input's first, in their
+    order) and the triangles."""
+    triangles = np.asarray(triangles, dtype=np.int64).copy()
+    alive = np.ones(len(points), dtype=bool)
+    removed = True
+    while removed:  # passes until one removes nothing
+        removed = False
+        for v in _candidates(points, triangles, first_inserted, short):
+            in_star = (triangles == v).any(axis=1)
+            made = _retriangulate_without(points, triangles[in_star], v, min_angle_deg)
+            if made is not None:
+                triangles = np.concatenate([triangles[~in_star], made])
+                alive[v], removed = False, True
+    return _compact(points, triangles, alive)
+
+
+def _candidates(points: np.ndarray, triangles: np.ndarray, first_inserted: int, short: float) -> list[int]:
+    """The inserted points with an edge shorter than ``short`` [m], shortest edge first."""
+    edges = np.unique(np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    lengths = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
+    shortest = np.full(len(points), np.inf)
+    np.minimum.at(shortest, edges.reshape(-1), np.repeat(lengths, 2))
+    shortest[:first_inserted] = np.inf
+    found = np.flatnonzero(shortest < short)
+    return found[np.argsort(shortest[found], kind="stable")].tolist()
+
+
+def _retriangulate_without(points: np.ndarray, star: np.ndarray, v: int, min_angle_deg: float) -> np.ndarray | None:
+    """Counter-clockwise triangles (k, 3) covering ``star`` (the triangles round point ``v``)
+    without ``v``, every angle at least ``min_angle_deg``; None if there are none such (``v``
+    at a corner of the outline, or the triangles would be worse)."""
+    link = _link(star, v)
+    if link is None:
+        return None
+    ring, closed = link
+    if not closed and not _in_line(points[ring[-1]], points[v], points[ring[0]]):
+        return None
+    polygon = points[ring]
+    if len(ring) < 3:
+        return None
+    tri = cdt.Triangulation(cdt.VertexInsertionOrder.AUTO, cdt.IntersectingConstraintEdges.NOT_ALLOWED, 0.0)
+    try:
+        tri.insert_vertices(np.ascontiguousarray(polygon))
+        tri.insert_edges(np.array([(k, (k + 1) % len(ring)) for k in range(len(ring))], dtype=np.uintc))
+        tri.erase_outer_triangles()
+    except RuntimeError:  # a degenerate link (points repeated or crossing)
+        return None
+    local = np.asarray(tri.triangles_array()["vertices"], dtype=np.int64).reshape(-1, 3)
+    if len(local) != len(star) - (2 if closed else 1):
+        return None
+    made = np.asarray(ring)[local]
+    if chart_min_angles(points, made).min() < min_angle_deg or np.any(_signed_areas(points, made) <= 0.0):
+        return None
+    return made
+
+
+def _link(star: np.ndarray, v: int) -> tuple[list[int], bool] | None:
+    """The star's outer edges (those not touching ``v``) chained counter-clockwise: (the points
+    in order, whether they close on themselves: ``v`` inside; else ``v`` lies on the outline
+    between the chain's last point and its first). None if they do not form one chain."""
+    after: dict[int, int] = {}
+    for a, b, c in star.tolist():
+        k = (a, b, c).index(v)
+        p, q = (a, b, c)[(k + 1) % 3], (a, b, c)[(k + 2) % 3]
+        if p in after:
+            return None
+        after[p] = q
+    starts = set(after) - set(after.values())
+    if len(starts) > 1:
+        return None
+    first = starts.pop() if starts else next(iter(after))
+    ring = [first]
+    while ring[-1] in after and len(ring) <= len(after):
+        nxt = after[ring[-1]]
+        if nxt == first:
+            return ring, True
+        ring.append(nxt)
+    return (ring, False) if len(ring) == len(after) + 1 else None
+
+
+def _in_line(a: np.ndarray, v: np.ndarray, b: np.ndarray) -> bool:
+    """``v`` lies on the segment from ``a`` to ``b`` (to rounding)."""
+    ab, av = b - a, v - a
+    scale = float(ab @ ab)
+    return abs(ab[0] * av[1] - ab[1] * av[0]) <= 1e-9 * scale and 0.0 < av @ ab < scale
+
+
+def _signed_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Twice the signed area of each triangle (positive: counter-clockwise)."""
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+
+
+def _compact(points: np.ndarray, triangles: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points left and the triangles renumbered onto them."""
+    new_index = np.cumsum(alive) - 1
+    return points[alive], new_index[triangles]
