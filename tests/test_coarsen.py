@@ -102,6 +102,16 @@ def test_a_split_point_goes_only_where_it_lies_in_line_on_the_outline():
     assert len(kept) == 5 and len(tris) == 3
 
 
+def test_points_no_triangle_uses_keep_their_place():
+    """An input point that lies in no triangle (left in an opening) is kept, so the input points
+    keep their indices when an inserted point goes."""
+    points = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [5.0, 5.0], [0.5, 0.0]], dtype=float)
+    triangles = np.array([[0, 5, 3], [5, 1, 2], [5, 2, 3]])
+    kept, tris = coarsen(points, triangles, 5, 10.0, 20.0)
+    np.testing.assert_array_equal(kept, points[:5])
+    assert sorted(map(sorted, tris.tolist())) in ([[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]])
+
+
 @st.composite
 def star_regions(draw):
     """A star-shaped polygon of 5-12 corners (radii 1-3, angles jittered) with up to 4 points

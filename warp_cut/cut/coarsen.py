@@ -14,6 +14,9 @@ Shapes: points (n, 2) [m]; triangles (t, 3) indices into points, counter-clockwi
 
 from __future__ import annotations
 
+import heapq
+import math
+
 import numpy as np
 import pythoncdt as cdt
 
@@ -26,33 +29,80 @@ def coarsen(points: np.ndarray, triangles: np.ndarray, first_inserted: int, shor
             min_angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
     """The fill (``points`` (n, 2) [m], counter-clockwise ``triangles`` (t, 3)) without the
     inserted points (index >= ``first_inserted``) that have an edge shorter than ``short`` [m]
-    and whose star can be re-triangulated with every angle at least ``min_angle_deg``. A point on
+    and whose star can be re-triangulated with every angle at least ``min_angle_deg``, shortest
+    edge first; a point is tried again only once the triangles round it have changed. A point on
     the outline goes only where it splits a straight piece of it (its two outline edges in
     line): the outline stays what it was. Returns the points left (the input's first, in their
     order) and the triangles."""
-    triangles = np.asarray(triangles, dtype=np.int64).copy()
-    alive = np.ones(len(points), dtype=bool)
-    removed = True
-    while removed:  # passes until one removes nothing
-        removed = False
-        for v in _candidates(points, triangles, first_inserted, short):
-            in_star = (triangles == v).any(axis=1)
-            made = _retriangulate_without(points, triangles[in_star], v, min_angle_deg)
-            if made is not None:
-                triangles = np.concatenate([triangles[~in_star], made])
-                alive[v], removed = False, True
-    return _compact(points, triangles, alive)
+    mesh = _Stars(points, triangles)
+    queue = [(mesh.shortest_edge(v), v) for v in range(first_inserted, len(points)) if mesh.star[v]]
+    queue = [item for item in queue if item[0] < short]
+    heapq.heapify(queue)
+    while queue:
+        length, v = heapq.heappop(queue)
+        if not mesh.star[v] or length != mesh.shortest_edge(v):
+            continue  # gone, or its edges changed since it was queued (queued again then)
+        made = _retriangulate_without(points, mesh.triangles_round(v), v, min_angle_deg)
+        if made is None:
+            continue
+        for w in mesh.replace_star(v, made):
+            if w >= first_inserted and (edge := mesh.shortest_edge(w)) < short:
+                heapq.heappush(queue, (edge, w))
+    return _compact(points, mesh.all_triangles(), mesh.alive())
 
 
-def _candidates(points: np.ndarray, triangles: np.ndarray, first_inserted: int, short: float) -> list[int]:
-    """The inserted points with an edge shorter than ``short`` [m], shortest edge first."""
-    edges = np.unique(np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
-    lengths = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
-    shortest = np.full(len(points), np.inf)
-    np.minimum.at(shortest, edges.reshape(-1), np.repeat(lengths, 2))
-    shortest[:first_inserted] = np.inf
-    found = np.flatnonzero(shortest < short)
-    return found[np.argsort(shortest[found], kind="stable")].tolist()
+class _Stars:
+    """Triangles by id, and the ids of the triangles round each point, updated as stars are
+    re-made."""
+
+    def __init__(self, points: np.ndarray, triangles: np.ndarray):
+        self.points = points
+        self._xy = np.asarray(points, dtype=np.float64).tolist()
+        self.triangles: dict[int, tuple[int, int, int]] = {}
+        self.star: list[set[int]] = [set() for _ in range(len(points))]
+        self.removed: set[int] = set()
+        self._next = 0
+        self._add(np.asarray(triangles, dtype=np.int64).tolist())
+
+    def _add(self, triangles) -> None:
+        for corners in triangles:
+            self.triangles[self._next] = tuple(int(c) for c in corners)
+            for c in corners:
+                self.star[int(c)].add(self._next)
+            self._next += 1
+
+    def triangles_round(self, v: int) -> np.ndarray:
+        """The triangles (k, 3) round point ``v``."""
+        return np.array([self.triangles[t] for t in self.star[v]], dtype=np.int64)
+
+    def shortest_edge(self, v: int) -> float:
+        """Length [m] of point ``v``'s shortest edge."""
+        x, y = self._xy[v]
+        return min(math.hypot(self._xy[c][0] - x, self._xy[c][1] - y)
+                   for t in self.star[v] for c in self.triangles[t] if c != v)
+
+    def replace_star(self, v: int, made: np.ndarray) -> set[int]:
+        """Put ``made`` (k, 3) in place of the triangles round ``v`` (``v`` goes); returns the
+        points round it, whose stars changed."""
+        link = set()
+        for t in self.star[v]:
+            for c in self.triangles.pop(t):
+                if c != v:
+                    self.star[c].discard(t)
+                    link.add(c)
+        self.star[v] = set()
+        self.removed.add(v)
+        self._add(made.tolist())
+        return link
+
+    def all_triangles(self) -> np.ndarray:
+        return np.array(list(self.triangles.values()), dtype=np.int64).reshape(-1, 3)
+
+    def alive(self) -> np.ndarray:
+        """Which points are left, (n,) bool (all but those whose stars were re-made without them)."""
+        out = np.ones(len(self.points), dtype=bool)
+        out[sorted(self.removed)] = False
+        return out
 
 
 def _retriangulate_without(points: np.ndarray, star: np.ndarray, v: int, min_angle_deg: float) -> np.ndarray | None:
