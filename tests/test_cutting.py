@@ -1563,3 +1563,24 @@ def test_a_zigzags_sharp_corners_leave_no_small_triangle():
     small, shortest = new_rest_edges(sim.model, first, surface.spacing)
     assert small == 0, f"{small} triangles with a rest edge under 0.2 spacings (shortest {shortest:.3f})"
 
+
+def test_an_arc_across_a_zigzag_wound_leaves_no_free_piece_in_it():
+    """XPBD on an unsupported 2 mm jittered disk (fuzz seed 1): an arc (r 1.8 mm) crosses a
+    zigzag wound (r 0.86 mm) twice and cuts free the tissue between the zigzag's legs and
+    itself. Its last event met the wound with lips matched to the wound's border nodes, no new
+    point where a lip line meets it, and the search for islands ran only after edits that made
+    such a point: a free piece of 24 triangles (and one of 7) was left floating in the wound, a
+    hole by the border loops. Every edit is searched now: the tissue stays one piece, no hole."""
+    surface = jittered_delaunay(0.0219761386843677, 0.0020348249979797034, 0.2737666837528252, seed=1166024082)
+    sim = unsupported_sim(surface, 0.02416281833417054, integrator="xpbd")
+    zigzag = strokes.zigzag([0.009890230507654611, 0.0001225322446404225], 3.039326963793948, 0.02052183284146154,
+                            0.0044394909278388265, 0.0139492739723282)
+    one_valid_incision(sim, surface, zigzag, 36.80471860849521, 0.0008577330835782815, 0.0022092768601948394,
+                       0.011633597824938596, 0.037490082806364)
+    arc = strokes.arc([0.008346768439198609, 0.0003868666960245362], -3.4159272222089205, 0.022309057158027414,
+                      0.02951026579156906)
+    result = one_valid_incision(sim, surface, arc, 31.73733960087174, 0.0017987696680811936, 0.0036982197100704837,
+                                0.019552129809666058, 0.03833279834473959)
+    assert result.unfilled_holes == 0
+    assert sim.cutter.totals["removed_islands"] >= 1
+    assert border_loop_count(sim.model.triangles) == 2  # the disk's rim and the one wound

@@ -457,7 +457,7 @@ class Cutter:
     def _free_islands(self, cut: PieceCut, keep: set[int]) -> None:
         """Remove the scraps this event trimmed off (but those holding a node of ``keep``) and
         the pieces of skin it cut free (unless the settings keep them)."""
-        scraps, islands = self.freed.after_edit(cut.met_border, keep)
+        scraps, islands = self.freed.after_edit(keep)
         self.totals["removed_scraps"] += scraps
         self.totals["removed_islands"] += islands
 

@@ -135,14 +135,16 @@ class FreedPieces:
         self.waiting: set[int] = set()
         """Triangles (slots) of the scraps that wait."""
 
-    def after_edit(self, met_border: bool, keep: set[int]) -> tuple[int, int]:
-        """Remove the scraps near what the edit made or touched (and the waiting ones), and, if
-        its slit ``met_border`` (an opening), the islands it cut free. Returns (scraps, islands)
-        removed."""
+    def after_edit(self, keep: set[int]) -> tuple[int, int]:
+        """Remove the scraps near what the edit made or touched (and the waiting ones), and the
+        islands it cut free. Every edit is searched, not only one whose slit met an opening by a
+        new point: a slit whose lips were matched to nodes of an earlier wound's border frees its
+        island just the same (an arc across a zigzag wound left a free piece of 24 triangles).
+        Returns (scraps, islands) removed."""
         editor = self.editor
         near = set(editor.report.new_triangles).union(*(editor.node_triangles[v] for v in editor.touched_nodes))
         scraps = self.remove_scraps(near, keep)
-        if not met_border or self.keep_islands:
+        if self.keep_islands:
             return scraps, 0
         islands = islands_from(editor.model, editor.report.new_triangles)
         for island in islands:
