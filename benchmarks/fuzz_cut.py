@@ -39,7 +39,7 @@ import numpy as np
 import warp as wp
 
 import warp_cut as wc
-import warp_cut.cut.beside as beside
+import warp_cut.cut.sweep.beside as beside
 from warp_cut.mesh.geometry import triangle_min_angles
 from warp_cut.scene import DEFAULT_FOUNDATION_STIFFNESS
 from warp_cut.sim.bending import flexural_rigidity
@@ -233,7 +233,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=None, help="markdown report (CSV beside it)")
     ap.add_argument("--bending", action="store_true", help="the skin resists bending (physics.bending)")
     ap.add_argument("--no-strips", action="store_true",
-                    help="cut no strip of tissue beside an opening (cut/beside.py): the run to compare with")
+                    help="cut no strip of tissue beside an opening (cut/sweep/beside.py): the run to compare with")
     args = ap.parse_args(argv)
     if args.no_strips:
         beside.BESIDE_RUN = float("inf")

@@ -256,7 +256,7 @@ def documented_modules(text: str) -> set[str]:
     """Module files docs/architecture.md names: the top-level modules of its tree block
     (``  simulator.py  ...``) and every module of its ``| module | owns |`` table, as paths
     relative to the package (``cut/cutter.py``); a bare name in a cell (``bezier.py``) is in the
-    folder of the last one with a folder (``cut/incision.py``, ``bezier.py``)."""
+    folder of the last one with a folder (``cut/curve/incision.py``, ``bezier.py``)."""
     tree = text.split("## The tree", 1)[1].split("```", 2)[1]
     names = {m.group(1) for m in re.finditer(r"^  (\w+\.py)\s", tree, re.MULTILINE)}
     table = text.split("| module | owns |", 1)[1].split("\n\n", 1)[0]

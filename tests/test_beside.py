@@ -1,4 +1,4 @@
-"""warp_cut/cut/beside.py: the strip of tissue between a cut and an opening beside it.
+"""warp_cut/cut/sweep/beside.py: the strip of tissue between a cut and an opening beside it.
 
 Compared against: a hand-built flat grid of 1 mm squares (5 x 5 cells) with an opening from
 (2, 1) to (3, 4) mm (three cells taken out) and a straight incision up the line x = 1.7 mm,
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from conftest import grid_without
 
-from warp_cut.cut import beside as beside_module
-from warp_cut.cut.beside import Beside, beside_opening, strip_polygons
-from warp_cut.cut.incision import Incision
-from warp_cut.cut.tissue_at_rest import on_tissue_at_rest
+from warp_cut.cut.contact.tissue_at_rest import on_tissue_at_rest
+from warp_cut.cut.curve.incision import Incision
+from warp_cut.cut.sweep import beside as beside_module
+from warp_cut.cut.sweep.beside import Beside, beside_opening, strip_polygons
 
 MM = 1e-3
 EDGE = 0.5 * MM
@@ -119,7 +119,7 @@ def test_runs_kept_are_long_and_not_a_moment_out_of_an_opening():
     """Samples 0.1 mm apart, runs of at least 0.5 mm kept: a 0.2 mm run goes; a 0.8 mm run
     between two samples in an opening (a recut wandering off its wound) goes; one with tissue
     on a side, or at the piece's end, stays."""
-    from warp_cut.cut.beside import _strip_runs
+    from warp_cut.cut.sweep.beside import _strip_runs
 
     u = np.arange(40) * 0.1 * MM
     mask = np.zeros(40, bool)

@@ -1,4 +1,4 @@
-"""Tests for warp_cut.cut.bezier (paper stage 2, Eqs. 5-8) against independent answers."""
+"""Tests for warp_cut.cut.curve.bezier (paper stage 2, Eqs. 5-8) against independent answers."""
 import math
 
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.bezier import (
+from warp_cut.cut.curve.bezier import (
     BEZIER_MATRIX,
     BezierChain,
     bernstein,

@@ -1,4 +1,4 @@
-"""warp_cut/cut/coarsen.py (through ``fill_region(coarsen_below=...)``): the refinement's needless
+"""warp_cut/cut/remesh/coarsen.py (through ``fill_region(coarsen_below=...)``): the refinement's needless
 small points are taken out, and the fill keeps its region, its outline, its input points and
 its smallest angle. Checked on a thin slit whose sides the refinement splits against each other,
 and as properties of random star-shaped regions with points inside; areas and angles are
@@ -14,8 +14,8 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.coarsen import coarsen
-from warp_cut.cut.fill import fill_region
+from warp_cut.cut.remesh.coarsen import coarsen
+from warp_cut.cut.remesh.fill import fill_region
 
 ANGLE = 22.0
 

@@ -14,7 +14,7 @@ import pytest
 from test_cutting import assert_open_slit
 
 from warp_cut.cut.classes import NodeClass
-from warp_cut.cut.incision import polyline_distance
+from warp_cut.cut.curve.incision import polyline_distance
 from warp_cut.cut.tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE
 from warp_cut.mesh.geometry import triangle_normals
 from warp_cut.runner import run_scene

@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 
 from warp_cut import Material, Simulator, TissueModel, Tool, stable_time_step
 from warp_cut.cut.classes import NodeClass, SpringClass
+from warp_cut.cut.contact.tissue_at_rest import on_triangles, tissue_near
 from warp_cut.cut.settings import CutSettings
-from warp_cut.cut.tissue_at_rest import on_triangles, tissue_near
 from warp_cut.cut.tolerances import EXIT_ADVANCE, LAST_STATION, MIN_ADVANCE
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.errors import InputError
@@ -389,7 +389,7 @@ def test_straight_cut_structure(patch_stroke):
 
 
 def test_straight_cut_node_and_spring_classes(patch_stroke):
-    """The classes of the between-rows cut as their definitions say (``remesh._classify``,
+    """The classes of the between-rows cut as their definitions say (``cut_piece._classify``,
     recomputed here from the springs): every live node of the slit (``slit_nodes``: lips, start,
     tip, the nodes the refinement put on its edges) is LIP and no other node is; every tissue
     node joined to one by a spring is YELLOW if joined to the start or the tip, else BLUE; no
@@ -1351,7 +1351,7 @@ def test_an_arc_across_an_earlier_wound_goes_on_past_it():
     "ending in an opening went on from that opening's border); the zigzag (r 1.8 mm) opens 0.50 "
     "and adds a border loop: its rest curve lies for most of its length in the earlier openings "
     "(the blade's crossings carried into the slits the tool pushes open), where nothing is cut, "
-    "so the strips beside an opening (cut/beside.py) do not reach it (>= 0.85 before the "
+    "so the strips beside an opening (cut/sweep/beside.py) do not reach it (>= 0.85 before the "
     "redesign). At 19ed9c9 the second stroke left rest triangles of 0.001 deg"))
 def test_a_zigzag_across_three_earlier_wounds_joins_them():
     """Four strokes on a jittered 1.7 mm cylinder mesh under gravity and the foundation, the last

@@ -1,4 +1,4 @@
-"""warp_cut/cut/event_band.py: the band one event takes out of the tissue, before the fill.
+"""warp_cut/cut/sweep/event_band.py: the band one event takes out of the tissue, before the fill.
 
 Compared against: a straight incision along x with an old slit end (a wedge from its newest lip
 pair to an old tip cut along a curve 0.15 mm to one side), where the lips of the next station
@@ -10,9 +10,9 @@ import pytest
 import shapely
 
 from warp_cut.cut.chart import RegionChart
-from warp_cut.cut.event_band import clear_of_old_tip
-from warp_cut.cut.incision import Incision
-from warp_cut.cut.slit_band import CUT_BEFORE, TIP, BandPoint, SlitBand
+from warp_cut.cut.curve.incision import Incision
+from warp_cut.cut.sweep.event_band import clear_of_old_tip
+from warp_cut.cut.sweep.slit_band import CUT_BEFORE, TIP, BandPoint, SlitBand
 
 MM = 1e-3
 W = 0.25 * MM  # lip offset

@@ -1,4 +1,4 @@
-"""warp_cut/cut/fill.py: a region of the chart filled with a constrained Delaunay refinement.
+"""warp_cut/cut/remesh/fill.py: a region of the chart filled with a constrained Delaunay refinement.
 
 Compared against: angles, signed areas and edge lengths computed here with numpy from the
 returned triangles; the region's area and point-in-polygon by Shapely; the outline's edges
@@ -14,7 +14,7 @@ import shapely
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.fill import fill_region
+from warp_cut.cut.remesh.fill import fill_region
 from warp_cut.errors import InputError
 
 

@@ -1,4 +1,4 @@
-"""Flips to Delaunay in a prestressed sheet's rest shape (warp_cut.cut.flips).
+"""Flips to Delaunay in a prestressed sheet's rest shape (warp_cut.cut.remesh.flips).
 
 Compared against: the quad's geometry (the other diagonal's angles, computed here), the
 in-circle determinant (Delaunay's own test, written here independently of the angles the module
@@ -13,7 +13,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from warp_cut import TissueModel
-from warp_cut.cut.flips import flip_to_delaunay
+from warp_cut.cut.remesh.flips import flip_to_delaunay
 from warp_cut.cut.topology import TopologyEditor
 from warp_cut.mesh.checks import check_mesh
 from warp_cut.mesh.geometry import SLIVER_DEG, triangle_areas, triangle_min_angles

@@ -1,4 +1,4 @@
-"""warp_cut/experiments/wound.py, warp_cut/cut/slit.py, warp_cut/sim/statics.py: a slit in a prestressed
+"""warp_cut/experiments/wound.py, warp_cut/cut/wound/reference_slit.py, warp_cut/sim/statics.py: a slit in a prestressed
 sheet opens like linear elastic fracture mechanics says.
 
 Compared against: Griffith's ellipse gap(x) = (4 T / E2D) sqrt(a^2 - x^2) with E2D = 2 k / sqrt(3)
@@ -13,8 +13,8 @@ import pytest
 from conftest import DEVICE
 
 from warp_cut import InputError, Material, Simulator, TissueModel
-from warp_cut.cut.slit import open_slit
 from warp_cut.cut.tolerances import MIN_ANGLE_DEG
+from warp_cut.cut.wound.reference_slit import open_slit
 from warp_cut.experiments.wound import (
     cutter_comparison,
     griffith_gap,

@@ -1,4 +1,4 @@
-"""warp_cut/cut/incision.py: an incision's path before anything is cut - turned back (a tool
+"""warp_cut/cut/curve/incision.py: an incision's path before anything is cut - turned back (a tool
 lowered with its axis tilted) and its start moved (into an earlier wound the blade reaches)."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from warp_cut.cut.incision import Incision, polyline_distance
+from warp_cut.cut.curve.incision import Incision, polyline_distance
 from warp_cut.cut.tolerances import STATION_GAP, STATION_TURN_DEG
 from warp_cut.errors import InputError
 

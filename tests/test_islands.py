@@ -1,4 +1,4 @@
-"""warp_cut/cut/islands.py: the pieces of skin a cut frees, and the scraps an edit trims off.
+"""warp_cut/cut/wound/islands.py: the pieces of skin a cut frees, and the scraps an edit trims off.
 
 Compared against: the connected pieces of hand-built meshes (a sheet with separate small
 pieces beside it, a piece held by a single node, a pinned piece, two pieces of equal size),
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from warp_cut import TissueModel
-from warp_cut.cut.islands import FreedPieces, islands_from, scraps_from
 from warp_cut.cut.topology import TopologyEditor
+from warp_cut.cut.wound.islands import FreedPieces, islands_from, scraps_from
 
 
 def grid(n: int, origin=(0.0, 0.0), cell: float = 1e-3):

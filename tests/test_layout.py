@@ -1,4 +1,4 @@
-"""warp_cut/cut/layout.py on hand-built cases: the cut across a sharp corner of tissue
+"""warp_cut/cut/remesh/layout.py on hand-built cases: the cut across a sharp corner of tissue
 (``corner_cut``) and the outline loops read back from GEOS (``_loops``)."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.layout import _corners, _loops, corner_cut
-from warp_cut.cut.slit_band import TIP, BandPoint
+from warp_cut.cut.remesh.layout import _corners, _loops, corner_cut
+from warp_cut.cut.sweep.slit_band import TIP, BandPoint
 from warp_cut.cut.tolerances import CORNER_CUT
 
 S = 2e-3

@@ -1,4 +1,4 @@
-"""warp_cut/cut/material_point.py: the blade's crossing carried from the deformed skin into the
+"""warp_cut/cut/contact/material_point.py: the blade's crossing carried from the deformed skin into the
 rest shape.
 
 Compared against: distances and closest points of a point to a triangle worked out by hand
@@ -13,7 +13,12 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.material_point import affine_material_point, closest_on_triangles, material_point, nearest_triangle
+from warp_cut.cut.contact.material_point import (
+    affine_material_point,
+    closest_on_triangles,
+    material_point,
+    nearest_triangle,
+)
 
 coordinates = st.floats(-1.0, 1.0, allow_nan=False)
 points_3d = st.tuples(coordinates, coordinates, coordinates).map(np.array)
@@ -86,7 +91,7 @@ def test_the_nearest_triangle_is_the_brute_force_nearest(count, seed, point, tou
 @given(st.integers(1, 20), st.integers(0, 2**32 - 1), points_3d, st.floats(0.0, 2.0))
 def test_a_triangle_is_within_reach_exactly_when_the_nearest_is(count, seed, point, reach):
     """The shortcut through the corners answers as the exact nearest distance does."""
-    from warp_cut.cut.material_point import _within
+    from warp_cut.cut.contact.material_point import _within
 
     corners = np.random.default_rng(seed).uniform(-1.0, 1.0, (count, 3, 3))
     assert _within(point, corners, reach) == (closest_on_triangles(point, corners)[0].min() <= reach)

@@ -1,4 +1,4 @@
-"""warp_cut/cut/piece.py: which piece of an incision's rest curve one event cuts, and when it
+"""warp_cut/cut/sweep/piece.py: which piece of an incision's rest curve one event cuts, and when it
 waits.
 
 Compared against: a hand-built flat grid of 1 mm squares (12 x 12 nodes) with an opening
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from conftest import grid_without
 
-from warp_cut.cut.incision import Incision
-from warp_cut.cut.piece import piece_to_cut
+from warp_cut.cut.curve.incision import Incision
+from warp_cut.cut.sweep.piece import piece_to_cut
 from warp_cut.cut.tolerances import MIN_ADVANCE
 from warp_cut.sim.control import Tool
 

@@ -1,4 +1,4 @@
-"""warp_cut/cut/region.py: the swept band's nodes and the region of triangles re-meshed round it,
+"""warp_cut/cut/sweep/region.py: the swept band's nodes and the region of triangles re-meshed round it,
 decided on the rest positions.
 
 Compared against: distances to segments from Shapely (2D) and by hand (3D), the mesh's border
@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from warp_cut import TissueModel
 from warp_cut.cut.chart import RegionChart
-from warp_cut.cut.region import Region, distance_to_segments, tissue_segments
+from warp_cut.cut.sweep.region import Region, distance_to_segments, tissue_segments
 from warp_cut.cut.tolerances import ROUND_ANGLE_DEG
 
 SPACING = 0.002

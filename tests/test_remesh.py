@@ -1,4 +1,4 @@
-"""warp_cut/cut/remesh.py: node matching of the band's lips (the paper's Alg. 2), on a hand-built
+"""warp_cut/cut/remesh/cut_piece.py: node matching of the band's lips (the paper's Alg. 2), on a hand-built
 band beside hand-placed slit nodes."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from warp_cut.cut.remesh import _match_bend_lips, _match_lips
+from warp_cut.cut.remesh.cut_piece import _match_bend_lips, _match_lips
+from warp_cut.cut.sweep.slit_band import CUT_BEFORE, TIP, BandPoint, SlitBand
 from warp_cut.cut.tolerances import LIP_MATCH
-from warp_cut.cut.slit_band import CUT_BEFORE, TIP, BandPoint, SlitBand
 
 S = 2e-3
 

@@ -1,4 +1,4 @@
-"""warp_cut/cut/slit_band.py: the band one event's slit takes out of the tissue, as rings of
+"""warp_cut/cut/sweep/slit_band.py: the band one event's slit takes out of the tissue, as rings of
 points of the rest surface.
 
 Compared against: a straight incision along x and an arc, where the lip lines are known
@@ -14,8 +14,8 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.incision import Incision
-from warp_cut.cut.slit_band import EXTENSION, JUNCTION, START, TIP, plan_band
+from warp_cut.cut.curve.incision import Incision
+from warp_cut.cut.sweep.slit_band import EXTENSION, JUNCTION, START, TIP, plan_band
 from warp_cut.cut.tolerances import FIRST_STATION, SNAP
 
 S = 2e-3          # station spacing [m]
@@ -372,7 +372,7 @@ def test_a_run_past_an_opening_too_short_for_a_lip_pair_waits():
     opening and reaches the tip shorter than ``least`` is left for a later event (the cut stops
     at the last sample over the opening); a run that begins the piece, is long enough, or ends
     in an opening is cut."""
-    from warp_cut.cut.slit_band import samples_to_cut
+    from warp_cut.cut.sweep.slit_band import samples_to_cut
 
     u = samples(51)  # 0.2 mm apart
     on = np.ones(len(u), bool)

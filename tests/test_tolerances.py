@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from warp_cut.cut.chart import PiecewiseLinearMap, RegionChart
-from warp_cut.cut.fill import fill_region
+from warp_cut.cut.remesh.fill import fill_region
 from warp_cut.cut.tolerances import CLEARANCE, MIN_ANGLE_DEG, REFINE_ANGLE_DEG
 
 

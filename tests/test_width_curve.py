@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from warp_cut.cut.width_curve import analyse_width, width_curve_metrics
+from warp_cut.cut.wound.width_curve import analyse_width, width_curve_metrics
 
 DT = 1e-3
 T = np.arange(0, 2001) * DT  # 0 .. 2 s

@@ -1,4 +1,4 @@
-"""warp_cut/cut/wound_links.py: the residual links a cut leaves across its wound, and where they
+"""warp_cut/cut/wound/links.py: the residual links a cut leaves across its wound, and where they
 go when an edit takes one of their nodes.
 
 Compared against: the springs of the uncut patch that cross a line, counted here from their
@@ -15,11 +15,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from warp_cut import Material, Simulator, TissueModel
-from warp_cut.cut.incision import Incision
+from warp_cut.cut.curve.incision import Incision
 from warp_cut.cut.settings import CutSettings
 from warp_cut.cut.tolerances import LINK_REACH, LINK_TAKER_MASS
 from warp_cut.cut.topology import TopologyEditor
-from warp_cut.cut.wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
+from warp_cut.cut.wound.links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 
 SPACING = 0.002
 MATERIAL = Material(density=1000.0, thickness=1e-3, youngs_modulus=2e4, residual_strain=0.1)

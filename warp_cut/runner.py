@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from .cut.width_curve import width_curve_metrics
+from .cut.wound.width_curve import width_curve_metrics
 from .errors import InputError, WarpCutError
 from .io.files import write_csv, write_json, write_ply
 from .io.plots import FinalFrame, write_run_plots

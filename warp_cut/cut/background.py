@@ -46,8 +46,8 @@ from ..sim.model import TissueModel
 from .cut_worker import CutSummary, ModelEdit, SharedPositions, WorkerEvent, serve
 from .events import EventClock
 from .host import CutHost
-from .measures import incision_width
 from .settings import CutSettings
+from .wound.measures import incision_width
 
 __all__ = ["BackgroundCutter", "arrival_positions"]
 
@@ -60,7 +60,7 @@ it takes the worker for hung [s]: an event takes it milliseconds."""
 
 class _LipPairs:
     """An incision as the loop sees it between edits: its paired lip nodes (what
-    ``warp_cut.cut.measures.incision_width`` reads)."""
+    ``warp_cut.cut.wound.measures.incision_width`` reads)."""
 
     def __init__(self, pairs: np.ndarray):
         self._pairs = pairs

@@ -6,16 +6,16 @@ tip has travelled a set fraction of the lip spacing (``CutSettings.travel``; or 
 tool pushes harder than a threshold) a cut event runs:
 
 * where the blade is: the crossing of the tool's axis with the current skin around it, with
-  the skin's normal there (``warp_cut.cut.surface``), carried into the rest shape by the
-  tissue round it (``BladeContact.material``, ``warp_cut.cut.material_point``); a crossing
+  the skin's normal there (``warp_cut.cut.contact.surface``), carried into the rest shape by the
+  tissue round it (``BladeContact.material``, ``warp_cut.cut.contact.material_point``); a crossing
   over an opening (an earlier wound) waits for the skin beyond it;
 * Stage 2 - the rest points of the crossings are fitted with a chain of cubic Bezier
-  segments (``warp_cut.cut.incision``);
+  segments (``warp_cut.cut.curve.incision``);
 * Stages 1 and 3 - the piece of rest curve cut since the last event sweeps a band whose nodes
   are deleted, and the region round it is re-meshed with the slit in it, every triangle at
-  least 20 degrees in the rest shape (``warp_cut.cut.remesh``); the tissue's springs the curve
-  crosses leave their residual links (``warp_cut.cut.wound_links``); a piece the slit cuts free
-  is removed (``warp_cut.cut.islands``).
+  least 20 degrees in the rest shape (``warp_cut.cut.remesh.cut_piece``); the tissue's springs the curve
+  crosses leave their residual links (``warp_cut.cut.wound.links``); a piece the slit cuts free
+  is removed (``warp_cut.cut.wound.islands``).
 
 An incision starts where the axis first crossed the skin (found among the tool's poses since
 the previous event, so neither a thin tool slipping between nodes nor the event interval
@@ -41,22 +41,22 @@ from ..sim.control import Tool
 from ..sim.model import TissueModel
 from ..sim.slots import member
 from ..sim.strokes import inside_cylinder
-from .contact import BladeContact, HitLists
+from .contact.contact import BladeContact, HitLists
+from .contact.material_point import MaterialPoint
+from .contact.surface import Crossing
+from .contact.tissue_at_rest import joined_start, rest_point_on_tissue
+from .curve.incision import Incision
 from .events import EventClock
-from .flips import flip_to_delaunay
 from .host import CutHost
-from .incision import Incision
-from .islands import FreedPieces
-from .material_point import MaterialPoint
-from .measures import gap_profile, incision_width, lip_deviation, path_coverage
-from .piece import Piece, piece_to_cut, without_necks
-from .remesh import PieceCut, SlitDoesNotFit, cut_piece
+from .remesh.cut_piece import PieceCut, SlitDoesNotFit, cut_piece
+from .remesh.flips import flip_to_delaunay
 from .settings import CutSettings
-from .surface import Crossing
-from .tissue_at_rest import joined_start, rest_point_on_tissue
+from .sweep.piece import Piece, piece_to_cut, without_necks
 from .tolerances import EXIT_ADVANCE, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
 from .topology import NodePositions, TopologyEditor
-from .wound_links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
+from .wound.islands import FreedPieces
+from .wound.links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
+from .wound.measures import gap_profile, incision_width, lip_deviation, path_coverage
 
 __all__ = ["Cutter", "STAGES"]
 
@@ -397,7 +397,7 @@ class Cutter:
         return True
 
     def _cut_piece(self, inc: Incision, piece: Piece, positions: NodePositions, tool: Tool | None) -> PieceCut | None:
-        """Stages 1 and 3 on ``piece`` (``remesh.cut_piece``, in the edit begun); None if its slit
+        """Stages 1 and 3 on ``piece`` (``cut_piece.cut_piece``, in the edit begun); None if its slit
         does not fit (counted in ``skipped`` by the reason)."""
         try:
             return self._remesh(inc, piece, positions, tool)
@@ -409,7 +409,7 @@ class Cutter:
             return None
 
     def _remesh(self, inc: Incision, piece: Piece, positions: NodePositions, tool: Tool | None) -> PieceCut:
-        """``remesh.cut_piece`` on ``piece``; where its slit does not fit and the piece crosses a
+        """``cut_piece.cut_piece`` on ``piece``; where its slit does not fit and the piece crosses a
         neck of tissue, once more with the neck left as it was (``piece.without_necks``)."""
         first = not inc.station_u and inc.tip_node < 0
 
@@ -520,7 +520,7 @@ class Cutter:
 
     def lip_deviation(self, positions: np.ndarray, in_plane: bool = True) -> float:
         """Largest distance [m] of a lip node from the tool's contact path (see
-        ``warp_cut.cut.measures.lip_deviation``)."""
+        ``warp_cut.cut.wound.measures.lip_deviation``)."""
         return lip_deviation(self.incisions, self.model, positions, in_plane=in_plane)
 
     @property
@@ -575,7 +575,7 @@ class Cutter:
 
     def gap_profile(self, positions: np.ndarray) -> dict:
         """The opening of every incision along its length: one row per station whose two lip
-        nodes are alive (``warp_cut.cut.measures.gap_profile``).
+        nodes are alive (``warp_cut.cut.wound.measures.gap_profile``).
 
         Args:
             positions: Current node positions [m], shape (node_count, 3).

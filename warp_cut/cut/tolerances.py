@@ -92,7 +92,7 @@ of a node next to it on the outline is left out: the outline goes straight on to
 
 LIP_MATCH = 0.3
 """A new lip within this [x s] of an earlier lip of its own side is that lip (node matching
-round a bend, ``remesh._match_bend_lips``): on the inside of a sharp bend the lip lines of the
+round a bend, ``cut_piece._match_bend_lips``): on the inside of a sharp bend the lip lines of the
 legs before and after it meet, and lips a sliver apart leave triangles that small."""
 
 MATCH = 1e-4

@@ -11,7 +11,7 @@ triangle lattice of springs k (Poisson's ratio 1/3), E t for van Gelder's materi
 Three comparisons, each a ``GapComparison``:
 
 * ``slit_comparison``: the spring network's own static equilibrium (``warp_cut.sim.statics``)
-  with an exact slit along a row of a prestressed lattice (``warp_cut.cut.slit``), the border
+  with an exact slit along a row of a prestressed lattice (``warp_cut.cut.wound.reference_slit``), the border
   either loaded by the prestress tractions (dead loads; a large plate) or pinned (clamped: the
   opening is lower);
 * ``slot_comparison``: the nodes the scalpel's swept capsule deletes removed from a scene's
@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cut.slit import open_slit
 from ..cut.topology import TopologyEditor
+from ..cut.wound.reference_slit import open_slit
 from ..io.files import atomic_path, write_csv
 from ..io.plots import new_figure, save_figure
 from ..runner import run_scene

@@ -21,9 +21,9 @@ from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-from ..cut.bezier import BezierChain
 from ..cut.classes import NODE_CLASS_COLORS, NodeClass
-from ..cut.width_curve import analyse_width
+from ..cut.curve.bezier import BezierChain
+from ..cut.wound.width_curve import analyse_width
 from .files import atomic_path
 
 __all__ = ["FinalFrame", "RunPicture", "plot_preview", "plot_series", "write_run_plots",

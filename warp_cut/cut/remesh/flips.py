@@ -1,6 +1,6 @@
 """Edge flips among the triangles a cut made: a prestressed strip made Delaunay in the rest shape.
 
-Each event's fill is Delaunay within its region (``warp_cut.cut.fill``); the edges where two
+Each event's fill is Delaunay within its region (``warp_cut.cut.remesh.fill``); the edges where two
 events' regions meet need not be. In a prestressed sheet the rest shape decides what each
 spring carries: an edge gets
 the cotangent tension (T/2)(cot a + cot b)|e| from the angles a, b opposite it, which is
@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh.geometry import SLIVER_DEG, cross3, edge_keys, half_edges, triangle_angles, triangle_min_angles
-from .classes import SpringClass
+from ...mesh.geometry import SLIVER_DEG, cross3, edge_keys, half_edges, triangle_angles, triangle_min_angles
+from ..classes import SpringClass
 
 __all__ = ["flip_to_delaunay", "FACING_COS", "DELAUNAY_TOLERANCE_DEG", "OLD_PAIR", "NEW_PAIR"]
 

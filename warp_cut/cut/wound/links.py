@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .chart import RegionChart
-from .incision import Incision
-from .tolerances import LINK_REACH, LINK_TAKER_MASS
-from .topology import EditReport, TopologyEditor
+from ..chart import RegionChart
+from ..curve.incision import Incision
+from ..tolerances import LINK_REACH, LINK_TAKER_MASS
+from ..topology import EditReport, TopologyEditor
 
 __all__ = ["OriginalSprings", "link_crossed_springs", "settle_pending_links", "carry_links"]
 

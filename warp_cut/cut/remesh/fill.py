@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pythoncdt as cdt
 
-from ..errors import InputError
-from .chart import chart_min_angles
+from ...errors import InputError
+from ..chart import chart_min_angles
 from .coarsen import coarsen
 
 __all__ = ["Fill", "fill_region"]

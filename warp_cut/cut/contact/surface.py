@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..mesh.geometry import cross3, plane_frame
+from ...mesh.geometry import cross3, plane_frame
 
 __all__ = ["Crossing", "axis_triangle_hits", "fit_height_field", "locate_crossing"]
 

@@ -6,7 +6,7 @@ names the vertices of the tissue's new outline (region nodes, band nodes, the ba
 points where a lip line meets a border: ``NewPoint``), leaves out a new point within ``MERGE``
 spacings of a node next to it (node matching), and fills the outline with the nodes inside at
 ``REFINE_ANGLE_DEG`` (``fill.fill_region``). The ``Layout`` it returns is what
-``remesh.cut_piece`` checks and writes; ``matched_lips`` and ``sharp_corners`` read it. Lengths
+``cut_piece.cut_piece`` checks and writes; ``matched_lips`` and ``sharp_corners`` read it. Lengths
 in metres.
 """
 
@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from ..errors import InputError
-from .chart import RegionChart
+from ...errors import InputError
+from ..chart import RegionChart
+from ..curve.incision import Incision
+from ..sweep.region import Region
+from ..sweep.slit_band import BandPoint, SlitBand
+from ..tolerances import COARSEN, CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
 from .fill import Fill, fill_region
-from .incision import Incision
-from .region import Region
-from .slit_band import BandPoint, SlitBand
-from .tolerances import COARSEN, CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
 
 __all__ = ["Layout", "NewPoint", "SlitDoesNotFit", "lay_out", "matched_lips", "sharp_corners", "corner_cut",
            "edge_of"]
@@ -54,7 +54,7 @@ class Layout:
     resumed_at: float | None = None
     """Where the band's last run begins at an opening's border [m] (``SlitBand.resumed_at``)."""
     band_lips: dict = field(default_factory=dict)
-    """(station, side) -> the node a lip of the band was matched to (``remesh._match_lips``)."""
+    """(station, side) -> the node a lip of the band was matched to (``cut_piece._match_lips``)."""
     matched: dict = field(default_factory=dict)
     """New point id (< 0) -> the node on the outline next to it that it was matched to
     (``MERGE``): that node stands in for it."""
@@ -69,7 +69,7 @@ class NewPoint:
 
 
 def matched_lips(layout: Layout) -> dict:
-    """(station, side) -> node of the lips matched to a node: by the band (``remesh._match_lips``) or by
+    """(station, side) -> node of the lips matched to a node: by the band (``cut_piece._match_lips``) or by
     the outline, next to them (``MERGE``), each node standing in for one lip only (two lips on
     one node would be no slit)."""
     lips: dict = dict(layout.band_lips)

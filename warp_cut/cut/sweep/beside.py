@@ -18,12 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..mesh.geometry import cross3
-from .chart import RegionChart
-from .incision import Incision
+from ...mesh.geometry import cross3
+from ..chart import RegionChart
+from ..contact.tissue_at_rest import on_triangles, tissue_near
+from ..curve.incision import Incision
+from ..tolerances import BESIDE_RUN
 from .slit_band import runs_of
-from .tissue_at_rest import on_triangles, tissue_near
-from .tolerances import BESIDE_RUN
 
 __all__ = ["Beside", "beside_opening", "strip_polygons"]
 

@@ -1,12 +1,12 @@
 """Incision: the blade's path carried into the rest shape, its Bezier curve (Stage 2) and its lips.
 
-Every cut event finds where the blade crosses the skin as it lies now (``warp_cut.cut.surface``)
+Every cut event finds where the blade crosses the skin as it lies now (``warp_cut.cut.contact.surface``)
 and carries that crossing into the rest (material) shape through the triangle it lies in
-(``warp_cut.cut.material_point``). The incision keeps both: ``path`` (rest points [m], each with
+(``warp_cut.cut.contact.material_point``). The incision keeps both: ``path`` (rest points [m], each with
 the rest surface's outward normal there), which the curve is fitted to, and ``contact_path``
 (the crossings where the skin was, each with its normal), which the lips are judged against.
 The curve is a chain of cubic Bezier segments fitted to ``path`` within ``tolerance`` (paper
-Eq. 5-8, ``warp_cut.cut.bezier``): C1 within a fit, tangent-continuous (G1) where the refitted
+Eq. 5-8, ``warp_cut.cut.curve.bezier``): C1 within a fit, tangent-continuous (G1) where the refitted
 tail joins the part frozen before; its end point is the latest crossing, so the incision's end
 follows the tool.
 
@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from ..mesh.geometry import cross3
+from ...errors import InputError
+from ...mesh.geometry import cross3
+from ..tolerances import FIRST_STATION, STATION_GAP, STATION_TURN_DEG
 from .bezier import BezierChain, fit_chain
-from .tolerances import FIRST_STATION, STATION_GAP, STATION_TURN_DEG
 
 __all__ = ["Incision", "polyline_distance"]
 

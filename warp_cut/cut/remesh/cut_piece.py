@@ -30,18 +30,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..sim.collision import pushed_out
-from ..sim.control import Tool
-from .beside import Beside, strip_polygons
-from .chart import PiecewiseLinearMap, RegionChart, chart_min_angles
-from .classes import NodeClass, SpringClass
-from .event_band import add_old_tip, clear_of_old_tip, clearance, edge_clearance, event_band
-from .fill import Fill
-from .incision import Incision
-from .layout import Layout, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
-from .region import Region
-from .slit_band import CUT_BEFORE, EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand
-from .tolerances import (
+from ...sim.collision import pushed_out
+from ...sim.control import Tool
+from ..chart import PiecewiseLinearMap, RegionChart, chart_min_angles
+from ..classes import NodeClass, SpringClass
+from ..curve.incision import Incision
+from ..sweep.beside import Beside, strip_polygons
+from ..sweep.event_band import add_old_tip, clear_of_old_tip, clearance, edge_clearance, event_band
+from ..sweep.region import Region
+from ..sweep.slit_band import CUT_BEFORE, EXTENSION, JUNCTION, START, TIP, BandPoint, SlitBand
+from ..tolerances import (
     LIP_MATCH,
     MAX_GROWTH,
     MERGE,
@@ -49,7 +47,9 @@ from .tolerances import (
     OLD_END_CLEARANCE,
     REGION_MARGIN,
 )
-from .topology import NodePositions, TopologyEditor
+from ..topology import NodePositions, TopologyEditor
+from .fill import Fill
+from .layout import Layout, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
 
 __all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece"]
 

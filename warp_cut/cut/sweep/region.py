@@ -7,7 +7,7 @@ does to the current positions changes it:
   curve the blade cut through tissue in this event are deleted (``c`` is the sweep radius, at
   least the lip offset plus ``CLEARANCE`` spacings, so no node kept beside a lip makes a thin
   triangle with it); nodes on a border of the tissue (an earlier wound, its edge) are left to
-  the slit's band, which takes those it reaches (``warp_cut.cut.remesh``);
+  the slit's band, which takes those it reaches (``warp_cut.cut.remesh.cut_piece``);
 * the region: every triangle at a node within ``c`` + ``REGION_MARGIN`` spacings of the piece,
   made round (a corner of the region sharper than ``ROUND_ANGLE_DEG`` takes in the whole fan of
   its node), and grown on request (``grow``, ``sweep``);
@@ -22,11 +22,11 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from ..mesh.geometry import triangle_angles
-from ..mesh.triangulate import boundary_edges
-from ..sim.slots import member
-from ..sim.topology_index import TopologyIndex
-from .tolerances import ROUND_ANGLE_DEG
+from ...mesh.geometry import triangle_angles
+from ...mesh.triangulate import boundary_edges
+from ...sim.slots import member
+from ...sim.topology_index import TopologyIndex
+from ..tolerances import ROUND_ANGLE_DEG
 
 __all__ = ["Region", "tissue_segments", "distance_to_segments", "border_edges", "border_nodes"]
 

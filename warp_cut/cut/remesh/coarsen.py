@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pythoncdt as cdt
 
-from .chart import chart_min_angles
+from ..chart import chart_min_angles
 
 __all__ = ["coarsen"]
 

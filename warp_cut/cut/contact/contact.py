@@ -3,9 +3,9 @@
 The ``Cutter`` asks them at every cut event:
 
 * where the tool's axis crosses the current, deformed skin around it (``contact``;
-  ``warp_cut.cut.surface.locate_crossing``), among the live nodes near the tool (a Warp kernel
+  ``warp_cut.cut.contact.surface.locate_crossing``), among the live nodes near the tool (a Warp kernel
   finds them, one thread per node slot), and which material point that crossing cuts
-  (``material``: ``warp_cut.cut.material_point``);
+  (``material``: ``warp_cut.cut.contact.material_point``);
 * whether an incision may start there (``can_start``), and where the blade entered or last
   crossed the skin among the poses since the previous event (``first_crossing``,
   ``last_crossing``);
@@ -21,13 +21,13 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..kernels.cutting import segment_node_hits
-from ..sim.control import Tool
-from ..sim.model import TissueModel
-from .incision import Incision, closest_on_polyline
+from ...kernels.cutting import segment_node_hits
+from ...sim.control import Tool
+from ...sim.model import TissueModel
+from ..curve.incision import Incision, closest_on_polyline
+from ..tolerances import VOID_REACH
 from .material_point import MaterialPoint, affine_material_point
 from .surface import Crossing, locate_crossing
-from .tolerances import VOID_REACH
 
 __all__ = ["BladeContact", "HitLists"]
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..mesh.geometry import cross3, plane_frame
+from ...mesh.geometry import cross3, plane_frame
 
 __all__ = ["MaterialPoint", "closest_on_triangles", "nearest_triangle", "material_point", "affine_material_point"]
 

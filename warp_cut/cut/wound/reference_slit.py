@@ -22,10 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..mesh.geometry import cross3
-from .classes import NodeClass
-from .topology import TopologyEditor
+from ...errors import InputError
+from ...mesh.geometry import cross3
+from ..classes import NodeClass
+from ..topology import TopologyEditor
 
 __all__ = ["Slit", "open_slit"]
 

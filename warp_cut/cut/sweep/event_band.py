@@ -15,11 +15,11 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from .chart import RegionChart
-from .incision import Incision
+from ..chart import RegionChart
+from ..curve.incision import Incision
+from ..tolerances import CLEARANCE, LAST_STATION
 from .region import Region, border_edges
 from .slit_band import CUT_BEFORE, BandPoint, SlitBand, plan_band
-from .tolerances import CLEARANCE, LAST_STATION
 
 __all__ = ["event_band", "add_old_tip", "clear_of_old_tip", "clearance", "edge_clearance"]
 
@@ -107,7 +107,7 @@ def clear_of_old_tip(band: SlitBand, old_run: list, inc: Incision, chart: Region
     curve the old tip was cut along, and a lip in that opening would be no node of the tissue
     left. Such a lip moves out across the curve until it lies ``margin`` [m] outside the
     opening, by up to a lip offset (one that cannot stays: the fill then refuses the slit and
-    a later event tries again, ``remesh._check_slit``). Leaving the station out instead would lengthen
+    a later event tries again, ``cut_piece._check_slit``). Leaving the station out instead would lengthen
     the slit's end without a lip pair, and a longer end catches the next stations' lips."""
     opening = shapely.Polygon(chart.to2d(np.array([p.rest for p in old_run]))).buffer(margin)
     steps = np.linspace(0.0, inc.lip_offset, 11)[1:]

@@ -19,7 +19,7 @@ round its front end, back down its right lip line, round its back end. A run's e
 
 The band's vertices are ``BandPoint``s: existing nodes (the pair), or new points the event makes
 if they end up on the tissue's new border (lips, tip, start), or extension points in an opening
-(never made). Stage 3 subtracts the band from the region (``warp_cut.cut.remesh``).
+(never made). Stage 3 subtracts the band from the region (``warp_cut.cut.remesh.cut_piece``).
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..mesh.geometry import plane_frame
-from .incision import Incision
-from .tolerances import FIRST_STATION, MIN_ANGLE_DEG, SNAP
+from ...mesh.geometry import plane_frame
+from ..curve.incision import Incision
+from ..tolerances import FIRST_STATION, MIN_ANGLE_DEG, SNAP
 
 __all__ = ["BandPoint", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION",
            "CUT_BEFORE"]

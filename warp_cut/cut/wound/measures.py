@@ -3,15 +3,15 @@ lips lie from the tool's path, and how much of the tool's path in the skin the o
 covers.
 
 Every function takes the current node positions [m], shape (node_count, 3), the model and
-the incisions (``warp_cut.cut.incision.Incision``) of a Cutter.
+the incisions (``warp_cut.cut.curve.incision.Incision``) of a Cutter.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .classes import NodeClass
-from .incision import Incision, closest_on_polyline, polyline_distance
+from ..classes import NodeClass
+from ..curve.incision import Incision, closest_on_polyline, polyline_distance
 
 __all__ = ["incision_width", "gap_profile", "lip_deviation", "coverage", "path_coverage"]
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh.geometry import corner_areas
+from ...mesh.geometry import corner_areas
 
 __all__ = ["FreedPieces", "islands_from", "scraps_from", "piece_nodes"]
 
