@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from conftest import grid_without
 
-from warp_cut.cut.contact.tissue_at_rest import on_tissue_at_rest
 from warp_cut.cut.curve.incision import Incision
 from warp_cut.cut.sweep import beside as beside_module
 from warp_cut.cut.sweep.beside import Beside, beside_opening, strip_polygons
+from warp_cut.cut.sweep.tissue_at_rest import on_tissue_at_rest
 
 MM = 1e-3
 EDGE = 0.5 * MM

@@ -1,4 +1,4 @@
-"""warp_cut/cut/contact/tissue_at_rest.py: rest points in the tissue or in an opening, and where a new
+"""warp_cut/cut/sweep/tissue_at_rest.py: rest points in the tissue or in an opening, and where a new
 incision starts beside an earlier wound.
 
 Compared against: a hand-built flat grid of 1 mm squares (5 x 5 cells) with its middle cell's
@@ -11,14 +11,14 @@ import pytest
 from conftest import grid_without
 
 from warp_cut import TissueModel
-from warp_cut.cut.contact.tissue_at_rest import (
+from warp_cut.cut.curve.incision import Incision
+from warp_cut.cut.sweep.tissue_at_rest import (
     joined_start,
     necks,
     on_tissue_at_rest,
     rest_point_on_tissue,
     tissue_and_edge,
 )
-from warp_cut.cut.curve.incision import Incision
 
 MM = 1e-3
 

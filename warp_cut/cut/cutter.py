@@ -44,7 +44,6 @@ from ..sim.strokes import inside_cylinder
 from .contact.contact import BladeContact, HitLists
 from .contact.material_point import MaterialPoint
 from .contact.surface import Crossing
-from .contact.tissue_at_rest import joined_start, rest_point_on_tissue
 from .curve.incision import Incision
 from .events import EventClock
 from .host import CutHost
@@ -52,6 +51,7 @@ from .remesh.cut_piece import PieceCut, SlitDoesNotFit, cut_piece
 from .remesh.flips import flip_to_delaunay
 from .settings import CutSettings
 from .sweep.piece import Piece, piece_to_cut, without_necks
+from .sweep.tissue_at_rest import joined_start, rest_point_on_tissue
 from .tolerances import EXIT_ADVANCE, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
 from .topology import NodePositions, TopologyEditor
 from .wound.islands import FreedPieces

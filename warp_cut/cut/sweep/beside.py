@@ -20,10 +20,10 @@ import numpy as np
 
 from ...mesh.geometry import cross3
 from ..chart import RegionChart
-from ..contact.tissue_at_rest import on_triangles, tissue_near
 from ..curve.incision import Incision
 from ..tolerances import BESIDE_RUN
 from .slit_band import runs_of
+from .tissue_at_rest import on_triangles, tissue_near
 
 __all__ = ["Beside", "beside_opening", "strip_polygons"]
 

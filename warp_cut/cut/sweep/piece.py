@@ -25,12 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...sim.control import Tool
-from ..contact.tissue_at_rest import necks, tissue_and_edge
 from ..curve.incision import Incision
 from ..tolerances import FIRST_STATION, LAST_STATION, MIN_ADVANCE, NECK_REACH
 from .beside import Beside, beside_opening
 from .event_band import clearance, edge_clearance
 from .slit_band import samples_to_cut
+from .tissue_at_rest import necks, tissue_and_edge
 
 __all__ = ["Piece", "piece_to_cut", "without_necks"]
 

@@ -13,8 +13,8 @@ from ...sim.model import TissueModel
 from ...sim.slots import member
 from ..chart import RegionChart, barycentric
 from ..curve.incision import Incision
-from ..sweep.region import border_edges, distance_to_segments
-from ..sweep.slit_band import runs_of
+from .region import border_edges, distance_to_segments
+from .slit_band import runs_of
 
 __all__ = ["on_tissue_at_rest", "tissue_and_edge", "necks", "rest_point_on_tissue", "joined_start", "tissue_near",
            "on_triangles"]
