@@ -25,6 +25,7 @@ if they end up on the tissue's new border (lips, tip, start), or extension point
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import IntEnum
 
 import numpy as np
 
@@ -32,24 +33,35 @@ from ...mesh.geometry import plane_frame
 from ..curve.incision import Incision
 from ..tolerances import FIRST_STATION, MIN_ANGLE_DEG, SNAP
 
-__all__ = ["BandPoint", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION",
+__all__ = ["BandPoint", "Role", "SlitBand", "plan_band", "samples_to_cut", "EXTENSION", "TIP", "START", "JUNCTION",
            "CUT_BEFORE"]
 
-TIP, START, EXTENSION, CUT_BEFORE, JUNCTION = -2, -1, -3, -4, -5
-"""``BandPoint.station`` of the tip, the start, an extension point, a node of the slit cut before
-(the newest lip pair, the old tip's outline), and a point where a lip line meets a border or a
-border node the band's end runs through (lips: the station's index)."""
+class Role(IntEnum):
+    """``BandPoint.station`` of a band point that is no lip (a lip's is its station's index,
+    >= 0): the slit's start, its tip, an extension point into an opening, a node of the slit cut
+    before (the newest lip pair, the old tip's outline), and a point where a lip line meets a
+    border or a border node the band's end runs through. Negative, so ``station < 0`` asks
+    whether a point is no lip."""
+
+    START = -1
+    TIP = -2
+    EXTENSION = -3
+    CUT_BEFORE = -4
+    JUNCTION = -5
+
+
+TIP, START, EXTENSION, CUT_BEFORE, JUNCTION = Role.TIP, Role.START, Role.EXTENSION, Role.CUT_BEFORE, Role.JUNCTION
 
 
 @dataclass(frozen=True)
 class BandPoint:
     """A vertex of the band: an existing node (``node`` >= 0), or a new point at ``rest`` [m]:
     a lip of station ``station`` on ``side`` (+1 left, -1 right), the tip (``TIP``, side 0), the
-    start (``START``) or an extension into an opening (``EXTENSION``)."""
+    start (``START``) or an extension into an opening (``EXTENSION``): a ``Role``."""
 
     rest: np.ndarray
     side: int
-    station: int
+    station: int | Role
     u: float
     node: int = -1
 
