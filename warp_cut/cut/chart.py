@@ -18,7 +18,7 @@ import numpy as np
 
 from ..mesh.geometry import cross3, plane_frame
 
-__all__ = ["RegionChart", "PiecewiseLinearMap", "barycentric", "chart_min_angles"]
+__all__ = ["RegionChart", "PiecewiseLinearMap", "barycentric", "chart_min_angles", "chart_signed_areas"]
 
 
 class RegionChart:
@@ -134,3 +134,10 @@ def chart_min_angles(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     behind = corners[:, [2, 0, 1]] - corners
     cross = ahead[..., 0] * behind[..., 1] - ahead[..., 1] * behind[..., 0]
     return np.degrees(np.arctan2(np.abs(cross), (ahead * behind).sum(axis=2))).min(axis=1)
+
+
+def chart_signed_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Twice the signed area of each triangle (t, 3) of chart points (n, 2), shape (t,)
+    (positive: counter-clockwise)."""
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])

@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pythoncdt as cdt
 
-from ..chart import chart_min_angles
+from ..chart import chart_min_angles, chart_signed_areas
 
 __all__ = ["coarsen"]
 
@@ -34,9 +34,11 @@ def coarsen(points: np.ndarray, triangles: np.ndarray, first_inserted: int, shor
     the outline goes only where it splits a straight piece of it (its two outline edges in
     line): the outline stays what it was. Returns the points left (the input's first, in their
     order) and the triangles."""
+    if not _any_short_inserted_edge(points, triangles, first_inserted, short):
+        return points, triangles  # the common fill: nothing to take out
     mesh = _Stars(points, triangles)
-    queue = [(mesh.shortest_edge(v), v) for v in range(first_inserted, len(points)) if mesh.star[v]]
-    queue = [item for item in queue if item[0] < short]
+    queue = [(length, v) for v in range(first_inserted, len(points))
+             if mesh.star[v] and (length := mesh.shortest_edge(v)) < short]
     heapq.heapify(queue)
     while queue:
         length, v = heapq.heappop(queue)
@@ -51,12 +53,20 @@ def coarsen(points: np.ndarray, triangles: np.ndarray, first_inserted: int, shor
     return _compact(points, mesh.all_triangles(), mesh.alive())
 
 
+def _any_short_inserted_edge(points: np.ndarray, triangles: np.ndarray, first_inserted: int, short: float) -> bool:
+    """Whether an edge of the triangles with an inserted point at an end is shorter than
+    ``short`` [m]."""
+    triangles = np.asarray(triangles).reshape(-1, 3)
+    ends = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 3, 2)
+    lengths = np.linalg.norm(points[ends[..., 0]] - points[ends[..., 1]], axis=2)
+    return bool(np.any((lengths < short) & (ends.max(axis=2) >= first_inserted)))
+
+
 class _Stars:
     """Triangles by id, and the ids of the triangles round each point, updated as stars are
     re-made."""
 
     def __init__(self, points: np.ndarray, triangles: np.ndarray):
-        self.points = points
         self._xy = np.asarray(points, dtype=np.float64).tolist()
         self.triangles: dict[int, tuple[int, int, int]] = {}
         self.star: list[set[int]] = [set() for _ in range(len(points))]
@@ -100,7 +110,7 @@ class _Stars:
 
     def alive(self) -> np.ndarray:
         """Which points are left, (n,) bool (all but those whose stars were re-made without them)."""
-        out = np.ones(len(self.points), dtype=bool)
+        out = np.ones(len(self._xy), dtype=bool)
         out[sorted(self.removed)] = False
         return out
 
@@ -113,11 +123,9 @@ def _retriangulate_without(points: np.ndarray, star: np.ndarray, v: int, min_ang
     if link is None:
         return None
     ring, closed = link
-    if not closed and not _in_line(points[ring[-1]], points[v], points[ring[0]]):
+    if len(ring) < 3 or not closed and not _in_line(points[ring[-1]], points[v], points[ring[0]]):
         return None
     polygon = points[ring]
-    if len(ring) < 3:
-        return None
     tri = cdt.Triangulation(cdt.VertexInsertionOrder.AUTO, cdt.IntersectingConstraintEdges.NOT_ALLOWED, 0.0)
     try:
         tri.insert_vertices(np.ascontiguousarray(polygon))
@@ -129,7 +137,7 @@ def _retriangulate_without(points: np.ndarray, star: np.ndarray, v: int, min_ang
     if len(local) != len(star) - (2 if closed else 1):
         return None
     made = np.asarray(ring)[local]
-    if chart_min_angles(points, made).min() < min_angle_deg or np.any(_signed_areas(points, made) <= 0.0):
+    if chart_min_angles(points, made).min() < min_angle_deg or np.any(chart_signed_areas(points, made) <= 0.0):
         return None
     return made
 
@@ -163,12 +171,6 @@ def _in_line(a: np.ndarray, v: np.ndarray, b: np.ndarray) -> bool:
     ab, av = b - a, v - a
     scale = float(ab @ ab)
     return abs(ab[0] * av[1] - ab[1] * av[0]) <= 1e-9 * scale and 0.0 < av @ ab < scale
-
-
-def _signed_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Twice the signed area of each triangle (positive: counter-clockwise)."""
-    a, b, c = (points[triangles[:, k]] for k in range(3))
-    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
 def _compact(points: np.ndarray, triangles: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

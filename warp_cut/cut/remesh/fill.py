@@ -20,7 +20,7 @@ import numpy as np
 import pythoncdt as cdt
 
 from ...errors import InputError
-from ..chart import chart_min_angles
+from ..chart import chart_min_angles, chart_signed_areas
 from .coarsen import coarsen
 
 __all__ = ["Fill", "fill_region"]
@@ -113,9 +113,7 @@ def _edges_of(triangles: np.ndarray) -> set:
 
 def _counter_clockwise(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """The triangles wound counter-clockwise in the chart."""
-    a, b, c = (points[triangles[:, k]] for k in range(3))
-    cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
     out = triangles.copy()
-    flip = cross < 0
+    flip = chart_signed_areas(points, triangles) < 0
     out[flip] = out[flip][:, [0, 2, 1]]
     return out
