@@ -140,15 +140,14 @@ class TopologyEditor:
 
     def delete_triangles(self, slots) -> None:
         table = self.model.triangle_table
-        corners = table.column("corners")
-        for slot in {int(s) for s in slots}:
-            if not table.alive[slot]:
-                continue
-            self.index.remove_triangle(slot, corners[slot])
-            self._touched.update(int(v) for v in corners[slot])
-            self.report.deleted_triangle_corners.append(tuple(int(v) for v in corners[slot]))
-            table.kill([slot])
-            self.report.deleted_triangles.append(slot)
+        alive = table.alive
+        dead = [slot for slot in {int(s) for s in slots} if alive[slot]]
+        for slot, tri in zip(dead, table.column("corners")[dead].tolist()):
+            self.index.remove_triangle(slot, tri)
+            self._touched.update(tri)
+            self.report.deleted_triangle_corners.append(tuple(tri))
+        table.kill(dead)
+        self.report.deleted_triangles.extend(dead)
 
     def delete_springs(self, slots, *, residual: bool = True, doomed_nodes=(), pending: list | None = None) -> None:
         """Delete springs and the triangles they bound. A deleted spring whose two end nodes
@@ -163,10 +162,8 @@ class TopologyEditor:
         rest = table.column("rest_length")
         doomed = set(int(v) for v in doomed_nodes)
         link_pairs, link_rest = [], []
-        for slot in {int(s) for s in slots}:
-            if not table.alive[slot]:
-                continue
-            i, j = (int(v) for v in pairs[slot])
+        dead = [slot for slot in {int(s) for s in slots} if table.alive[slot]]
+        for slot, (i, j) in zip(dead, pairs[dead].tolist()):
             self.delete_triangles(self.triangles_with_edge(i, j))
             if residual and model.active[i] and model.active[j] and i not in doomed and j not in doomed:
                 if pending is not None:
@@ -176,8 +173,8 @@ class TopologyEditor:
                     link_rest.append(rest[slot])
             self.index.remove_spring(slot, i, j)
             self._touched.update((i, j))
-            table.kill([slot])
-            self.report.deleted_springs.append(slot)
+        table.kill(dead)
+        self.report.deleted_springs.extend(dead)
         self.make_links(link_pairs, link_rest)
 
     def make_links(self, pairs, rest_lengths, *, once_per_pair: bool = True) -> None:
@@ -206,11 +203,10 @@ class TopologyEditor:
         table = self.model.link_table
         pairs = table.column("pairs")
         lost = {int(v) for v in lost_nodes}
-        for slot in {int(s) for s in slots}:
-            if not table.alive[slot]:
-                continue
-            i, j = (int(v) for v in pairs[slot])
-            force, smoothing = float(table.column("force")[slot]), float(table.column("smoothing")[slot])
+        dead = [slot for slot in {int(s) for s in slots} if table.alive[slot]]
+        rows = zip(dead, pairs[dead].tolist(), table.column("force")[dead].tolist(),
+                   table.column("smoothing")[dead].tolist())
+        for slot, (i, j), force, smoothing in rows:
             for gone, keep in ((i, j), (j, i)):
                 if gone in lost and keep not in lost and self.model.active[keep]:
                     self.report.orphaned_links.append((keep, gone, force, smoothing))
@@ -218,8 +214,8 @@ class TopologyEditor:
                 self.report.severed_links.append((i, j, force, smoothing))
             self.index.remove_link(slot, i, j)
             self._touched.update((i, j))  # their stable-step rows change
-            table.kill([slot])
-            self.report.deleted_links.append(slot)
+        table.kill(dead)
+        self.report.deleted_links.extend(dead)
 
     def delete_nodes(self, nodes) -> None:
         """Delete nodes with their springs (no residual links: an end is gone), triangles and links."""

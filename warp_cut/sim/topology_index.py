@@ -40,10 +40,9 @@ class TopologyIndex:
     # ------------------------------------------------------------------ queries
     def spring_between(self, i: int, j: int) -> int | None:
         """The live spring slot joining nodes i and j, or None."""
-        pairs = self.model.spring_table.column("pairs")
-        for slot in self.node_springs[i]:
-            a, b = pairs[slot]
-            if a == j or b == j:
+        at_j = self.node_springs[j]
+        for slot in self.node_springs[i]:  # the first of i's springs that j has too (i's own order)
+            if slot in at_j:
                 return slot
         return None
 

@@ -105,22 +105,18 @@ def link_crossed_springs(editor: TopologyEditor, inc: Incision, springs: Origina
         return
     seen.update(k for k, _ in fresh)
     active = editor.model.active
+    ends = springs.pairs[[k for k, _ in fresh]]                                   # (f, 2)
+    sides = inc.project(editor.model.points[ends.reshape(-1)])[1].reshape(-1, 2)  # one projection for all
+    crossing_u = inc.project(np.array([x for _, x in fresh]))[0]
     direct, direct_rest = [], []
-    for k, x in fresh:
-        i, j = (int(v) for v in springs.pairs[k])
-        if active[i] and active[j] and _on_both_sides(inc, editor.model.points[[i, j]]):
+    for (k, _), (i, j), side, u in zip(fresh, ends.tolist(), sides, crossing_u.tolist()):
+        if active[i] and active[j] and side[0] != side[1]:  # both live, on either side of the curve
             direct.append((i, j))
             direct_rest.append(springs.rest_lengths[k])
         else:
-            inc.pending_links.append((float(inc.project(x[None])[0][0]), float(springs.rest_lengths[k])))
+            inc.pending_links.append((float(u), float(springs.rest_lengths[k])))
     editor.make_links(direct, direct_rest, once_per_pair=False)
     settle_pending_links(editor, inc, reach=LINK_REACH * inc.spacing)
-
-
-def _on_both_sides(inc: Incision, points: np.ndarray) -> bool:
-    """True if two rest points (2, 3) lie on either side of the curve."""
-    side = inc.project(points)[1]
-    return bool(side[0] != side[1])
 
 
 def settle_pending_links(editor: TopologyEditor, inc: Incision, reach: float) -> None:
@@ -165,7 +161,13 @@ def carry_links(editor: TopologyEditor, inc: Incision | None, report: EditReport
     mass take one. Returns how many were lost."""
     model = editor.model
     nodes = _link_takers(model, candidates)
-    sides = inc.project(model.points[nodes])[1] if inc is not None and len(nodes) else np.zeros(len(nodes))
+    gone_nodes = sorted({g for _, g, _, _ in report.orphaned_links} | {v for i, j, _, _ in report.severed_links
+                                                                      for v in (i, j)})
+    if inc is not None and len(nodes):  # one projection for the takers and the deleted nodes
+        both = inc.project(model.points[np.concatenate([nodes, np.array(gone_nodes, dtype=np.int64)])])[1]
+        sides, gone_side = both[:len(nodes)], dict(zip(gone_nodes, both[len(nodes):].tolist()))
+    else:
+        sides, gone_side = np.zeros(len(nodes)), {}
     lost = 0
 
     def taking(gone: int, partner: int) -> int:
@@ -176,7 +178,7 @@ def carry_links(editor: TopologyEditor, inc: Incision | None, report: EditReport
         dist = np.linalg.norm(model.points[nodes] - x, axis=1)
         ok = (dist <= reach) & (nodes != partner)
         if inc is not None:
-            ok &= sides == inc.project(x[None])[1][0]
+            ok &= sides == gone_side[gone]
         if partner >= 0:
             ok &= np.array([editor.spring_between(partner, v) is None for v in nodes.tolist()])
         return int(nodes[np.flatnonzero(ok)[np.argmin(dist[ok])]]) if ok.any() else -1
