@@ -64,8 +64,11 @@ END_TRIES = 4
 """Tries to cut an ended incision's slit to its end, each a quarter spacing shorter (a fill that
 does not lay the whole slit is refused: ``SlitDoesNotFit``)."""
 
-STAGES = ("locate", "stage2_bezier", "select_piece", "stage1_swept_band", "stage3_fill", "device_update")
-"""Names of the timed parts of a cut event (latency in metrics.json)."""
+STAGES = ("locate", "curve", "select_piece", "remesh", "links_and_islands", "device_update")
+"""Names of the timed parts of a cut event (latency in metrics.json), in their order: the
+blade's crossing and its material point; the incision curve's refit (Stage 2); the piece of
+curve the event cuts; Stages 1 and 3's re-mesh (region, band, fill, writing it); the wound's
+links, split nodes, islands and the edit's finish; the edit mirrored on the device."""
 
 _TOTALS = ("deleted_nodes", "deleted_springs", "residual_links", "carried_links", "lost_links", "lip_nodes",
            "inserted_nodes", "new_springs", "removed_fragments", "removed_islands", "removed_scraps", "region_growths",
@@ -119,7 +122,8 @@ class Cutter:
         """Removes the scraps and islands an edit leaves (a scrap holding the newest lip pair of
         the incision being cut waits: its next event closes onto it)."""
         self.skipped: dict[str, int] = {}
-        """Why events were left for the next one (the slit did not fit its region): reason -> count."""
+        """Why events were left for the next one (the slit did not fit its region): the
+        ``Refusal``'s message -> count."""
         self._loops_before = border_loop_count(model.triangles)
         for module in (cut_kernels, scatter):  # compiled now, so no cut event pays for it
             wp.load_module(module, device=device)
@@ -403,7 +407,7 @@ class Cutter:
             return self._remesh(inc, piece, positions, tool)
         except SlitDoesNotFit as why:
             self.totals["skipped_events"] += 1
-            self.skipped[str(why)] = self.skipped.get(str(why), 0) + 1
+            self.skipped[why.reason.value] = self.skipped.get(why.reason.value, 0) + 1
             if not (piece.on_tissue & ~piece.necks).any():
                 inc.cut_point = piece.points[-1].copy()  # only a strip beside an opening or a neck: it does not fit
             return None
