@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 from warp_cut import Material, Simulator, TissueModel, Tool, stable_time_step
 from warp_cut.cut.classes import NodeClass, SpringClass
 from warp_cut.cut.settings import CutSettings
+from warp_cut.cut.remesh.layout import Refusal, SlitDoesNotFit
 from warp_cut.cut.sweep.tissue_at_rest import on_triangles, tissue_near
 from warp_cut.cut.tolerances import EXIT_ADVANCE, LAST_STATION, MIN_ADVANCE
 from warp_cut.cut.topology import TopologyEditor
@@ -1535,13 +1536,13 @@ def test_a_neck_the_fill_cannot_cut_through_is_left_as_it_was(monkeypatch):
         neck = on_tissue & (x > 6.0e-3) & (x < 7.0e-3)
         tried.append(bool(neck.any()))
         if neck.any():
-            raise cutter_module.SlitDoesNotFit("a test refusing the neck")
+            raise SlitDoesNotFit(Refusal.NO_FILL, "a test refusing the neck")
         return real(editor, inc, u, on_tissue, near, positions, **kw)
 
     monkeypatch.setattr(cutter_module, "cut_piece", refusing)
     _, sim, over_neck = cut_across_a_neck()
     assert any(tried)  # the neck was tried
-    assert "a test refusing the neck" not in sim.cutter.skipped
+    assert Refusal.NO_FILL.value not in sim.cutter.skipped  # the retry without the neck fitted
     assert over_neck.all()
 
 

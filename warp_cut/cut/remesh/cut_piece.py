@@ -49,7 +49,7 @@ from ..tolerances import (
 )
 from ..topology import NodePositions, TopologyEditor
 from .fill import Fill
-from .layout import Layout, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
+from .layout import Layout, Refusal, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
 
 __all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece"]
 
@@ -127,7 +127,7 @@ def _lay_out_piece(model, inc: Incision, u: np.ndarray, on_tissue: np.ndarray, n
     band.strips = strip_polygons(inc, u, beside, edge_clearance(inc))
     old_tip = add_old_tip(model, inc, region, band, provisional)
     if not region.triangles:
-        raise SlitDoesNotFit("no tissue around the piece")
+        raise SlitDoesNotFit(Refusal.NO_TISSUE)
     corners = model.triangle_table.column("corners")[sorted(region.triangles)]
     chart = RegionChart.of_triangles(model.points[corners])
     if old_tip is not None:
@@ -167,9 +167,9 @@ def _fill(model, inc: Incision, region: Region, band: SlitBand, chart: RegionCha
             else:
                 wedges.append(wedge)
     if refused:  # a split outline edge would leave a node on the edge of a triangle outside
-        raise SlitDoesNotFit("the refinement splits the region's outline however far it grows")
+        raise SlitDoesNotFit(Refusal.SPLITS_OUTLINE)
     if layout.fill.unrefined and _smallest_angle(layout.fill) < MIN_ANGLE_DEG:
-        raise SlitDoesNotFit("the fill leaves a triangle under the smallest angle however far it grows")
+        raise SlitDoesNotFit(Refusal.UNDER_ANGLE)
     _check_slit(layout, band)
     return layout, growth
 
@@ -199,7 +199,7 @@ def _check_slit(layout: Layout, band: SlitBand) -> None:
         laid[key] = laid.get(key, 0) + 1
     missing = sorted(k for k in wanted if laid.get(k, 0) != 1)
     if missing:
-        raise SlitDoesNotFit(f"the fill does not lay the slit's points {missing} once each")
+        raise SlitDoesNotFit(Refusal.SLIT_NOT_LAID, f"(station, side) {missing}")
 
 
 def _match_bend_lips(band: SlitBand, inc: Incision, model, reach: float) -> int:

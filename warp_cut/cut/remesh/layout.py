@@ -12,6 +12,7 @@ in metres.
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,12 +26,34 @@ from ..sweep.slit_band import BandPoint, SlitBand
 from ..tolerances import COARSEN, CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
 from .fill import Fill, fill_region
 
-__all__ = ["Layout", "NewPoint", "SlitDoesNotFit", "lay_out", "matched_lips", "sharp_corners", "corner_cut",
+__all__ = ["Layout", "NewPoint", "Refusal", "SlitDoesNotFit", "lay_out", "matched_lips", "sharp_corners", "corner_cut",
            "edge_of"]
 
 
+class Refusal(enum.Enum):
+    """Why an event's slit did not fit its region (``SlitDoesNotFit.reason``); each value is
+    the message the Cutter counts refused events under (``Cutter.skipped``)."""
+
+    NO_TISSUE = "no tissue around the piece"
+    NOTHING_LEFT = "the band leaves no tissue in its region"
+    NO_FILL = "the region cannot be filled"
+    SPLITS_OUTLINE = "the refinement splits the region's outline however far it grows"
+    UNDER_ANGLE = "the fill leaves a triangle under the smallest angle however far it grows"
+    SLIT_NOT_LAID = "the fill does not lay every point of the slit once"
+
+
 class SlitDoesNotFit(Exception):
-    """The slit of an event could not be laid out in its region (nothing was edited)."""
+    """The slit of an event could not be laid out in its region (nothing was edited).
+
+    Args:
+        reason: Why (a ``Refusal``).
+        detail: What exactly, for the message (e.g. which points of the slit are missing).
+    """
+
+    def __init__(self, reason: Refusal, detail: str = ""):
+        super().__init__(f"{reason.value}: {detail}" if detail else reason.value)
+        self.reason = reason
+        self.detail = detail
 
 
 @dataclass
@@ -105,7 +128,7 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
     pieces = [g for g in getattr(left, "geoms", [left]) if isinstance(g, shapely.Polygon)
               and g.area > (0.01 * inc.spacing) ** 2]
     if not pieces:
-        raise SlitDoesNotFit("the band leaves no tissue in its region")
+        raise SlitDoesNotFit(Refusal.NOTHING_LEFT)
     table = _VertexTable(model, chart, region, band, MATCH * inc.spacing)
     loops, points, matched = _loops(pieces, table, MERGE * inc.spacing)
     outline = {v for loop in loops for v in loop}
@@ -118,7 +141,7 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
         fill = fill_region(chart_points, edges, min_angle_deg=REFINE_ANGLE_DEG, min_edge=MIN_EDGE * inc.spacing,
                            coarsen_below=COARSEN * inc.spacing)
     except InputError as err:
-        raise SlitDoesNotFit(str(err)) from err
+        raise SlitDoesNotFit(Refusal.NO_FILL, str(err)) from err
     fixed = {(min(a, b), max(a, b)) for a, b in region.outline() if not region.on_mesh_border(a, b)}
     kept = {(min(a, b), max(a, b)) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1])}
     cut_across = {e for e in fixed if e not in kept and not {*e} & region.deleted}
