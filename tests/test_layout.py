@@ -11,7 +11,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.remesh.layout import _corners, _loops, corner_cut
+from warp_cut.cut.remesh.layout import Turn, _corners, _loops, corner_cut
 from warp_cut.cut.sweep.slit_band import TIP, BandPoint
 from warp_cut.cut.tolerances import CORNER_CUT
 
@@ -98,11 +98,11 @@ def test_where_a_slit_touches_a_border_at_a_node_the_corners_are_the_tissue_betw
     points = np.array([[0.0, 0.0], [S, 0.0], [-S, 0.0],
                        [S * math.cos(deg(15)), S * math.sin(deg(15))],
                        [S * math.cos(deg(155)), S * math.sin(deg(155))]])
-    raw = [(0, 0, 2, 1), (0, 0, 3, 4)]  # (vertex, row, before, after): border 2 -> 0 -> 1, band 3 -> 0 -> 4
+    raw = [Turn(0, 0, 2, 1), Turn(0, 0, 3, 4)]  # border 2 -> 0 -> 1, band 3 -> 0 -> 4
     corners = _corners(raw, points)
-    assert sorted((t[2], t[3]) for t in corners) == [(2, 4), (3, 1)]
+    assert sorted((t.before, t.after) for t in corners) == [(2, 4), (3, 1)]
     for _, row, before, after in corners:
         a, b = points[after] - points[row], points[before] - points[row]
         angle = math.degrees(math.atan2(a[0] * b[1] - a[1] * b[0], a @ b)) % 360.0
         assert math.isclose(angle, 15.0 if after == 1 else 25.0, abs_tol=1e-9)
-    assert _corners([(5, 0, 1, 2)], points) == [(5, 0, 1, 2)]
+    assert _corners([Turn(5, 0, 1, 2)], points) == [Turn(5, 0, 1, 2)]

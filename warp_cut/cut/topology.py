@@ -15,6 +15,7 @@ instead of being rebuilt.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -26,7 +27,7 @@ from ..sim.model_change import ModelChange
 from ..sim.slots import member
 from .classes import NodeClass, SpringClass
 
-__all__ = ["TopologyEditor", "EditReport", "NodePositions"]
+__all__ = ["TopologyEditor", "EditReport", "NodePositions", "OrphanedLink", "SeveredLink"]
 
 
 class NodePositions:
@@ -56,6 +57,28 @@ class NodePositions:
         self.extra[int(index)] = np.asarray(value, dtype=np.float64)
 
 
+class OrphanedLink(NamedTuple):
+    """A residual link an edit cut off at one end: ``keep`` lives on, ``gone`` was deleted."""
+
+    keep: int
+    gone: int
+    force: float
+    """[N]"""
+    smoothing: float
+    """[m]"""
+
+
+class SeveredLink(NamedTuple):
+    """A residual link an edit cut off at both ends, the deleted nodes ``i`` and ``j``."""
+
+    i: int
+    j: int
+    force: float
+    """[N]"""
+    smoothing: float
+    """[m]"""
+
+
 @dataclass
 class EditReport:
     """What one edit did (slot indices)."""
@@ -74,10 +97,10 @@ class EditReport:
     """Residual links re-made between a surviving node and the node that took a deleted one's place."""
     moved_links: list = field(default_factory=list)
     """Residual links whose end nodes were changed (``TopologyEditor.move_link``)."""
-    orphaned_links: list = field(default_factory=list)
-    """(surviving node, deleted node, force [N], smoothing [m]) of links that lost a node."""
-    severed_links: list = field(default_factory=list)
-    """(node i, node j, force [N], smoothing [m]) of links that lost both nodes."""
+    orphaned_links: list[OrphanedLink] = field(default_factory=list)
+    """Links that lost a node."""
+    severed_links: list[SeveredLink] = field(default_factory=list)
+    """Links that lost both nodes."""
     removed_fragments: list = field(default_factory=list)
     """Nodes deleted because the edit left them without any triangle."""
     stray_springs: list = field(default_factory=list)
@@ -209,9 +232,9 @@ class TopologyEditor:
         for slot, (i, j), force, smoothing in rows:
             for gone, keep in ((i, j), (j, i)):
                 if gone in lost and keep not in lost and self.model.active[keep]:
-                    self.report.orphaned_links.append((keep, gone, force, smoothing))
+                    self.report.orphaned_links.append(OrphanedLink(keep, gone, force, smoothing))
             if i in lost and j in lost:
-                self.report.severed_links.append((i, j, force, smoothing))
+                self.report.severed_links.append(SeveredLink(i, j, force, smoothing))
             self.index.remove_link(slot, i, j)
             self._touched.update((i, j))  # their stable-step rows change
         table.kill(dead)
@@ -236,8 +259,8 @@ class TopologyEditor:
         (a scrap or an island removed after the event's own deletions) have lost both nodes:
         they move to ``report.severed_links``."""
         report = self.report
-        report.severed_links += [link for link in report.orphaned_links if link[0] in doomed]
-        report.orphaned_links = [link for link in report.orphaned_links if link[0] not in doomed]
+        report.severed_links += [SeveredLink(*link) for link in report.orphaned_links if link.keep in doomed]
+        report.orphaned_links = [link for link in report.orphaned_links if link.keep not in doomed]
 
     def add_nodes(self, points, node_class: int = NodeClass.LIP) -> np.ndarray:
         """New nodes with rest positions ``points`` (k, 3) [m]; masses set at finish. Their

@@ -27,6 +27,7 @@ anything: the event is left for the next one.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -51,7 +52,15 @@ from ..topology import NodePositions, TopologyEditor
 from .fill import Fill
 from .layout import Layout, Refusal, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
 
-__all__ = ["PieceCut", "SlitDoesNotFit", "cut_piece"]
+__all__ = ["PieceCut", "NewStation", "SlitDoesNotFit", "cut_piece"]
+
+
+class NewStation(NamedTuple):
+    """A station an event made: its arc length ``u`` [m] and its lip nodes (-1: no lip on that side)."""
+
+    u: float
+    left: int
+    right: int
 
 
 @dataclass
@@ -62,7 +71,7 @@ class PieceCut:
         deleted: Nodes the event deleted (swept by the band, or left in it).
         lips: New nodes on the slit (lips, tip, start, and where a lip line meets a border).
         inserted: Nodes the refinement inserted.
-        stations: (u [m], left node, right node) of each new station (-1: no lip there).
+        stations: Each new station (``NewStation``).
         tip: The new tip node (-1: the slit ends in an opening).
         start: The start node made here (-1: none made).
         growth: How many times the region grew (or a sharp corner went) before the fill.
@@ -162,7 +171,7 @@ def _fill(model, inc: Incision, region: Region, band: SlitBand, chart: RegionCha
         region.grow(refused)
         for turn, wedge in sharp:
             if wedge is None:
-                if region.sweep([turn[0]]):  # its fan taken in, a corner on the tissue's border stays
+                if region.sweep([turn.vertex]):  # its fan taken in, a corner on the tissue's border stays
                     wedges.append(corner_cut(layout, turn, inc.spacing))
             else:
                 wedges.append(wedge)
@@ -307,7 +316,7 @@ def _record(inc: Incision, layout: Layout, node_of: list, gone: list) -> PieceCu
         left, right = lips.get((k, 1), -1), lips.get((k, -1), -1)
         if left >= 0 or right >= 0:
             inc.add_station(u, left, right)
-            cut.stations.append((u, left, right))
+            cut.stations.append(NewStation(u, left, right))
     if layout.resumed_at is not None:
         inc.resume_u = max(inc.resume_u, layout.resumed_at)
     cut.tip = lips.get((TIP, 0), -1)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import shapely
@@ -26,7 +27,7 @@ from ..sweep.slit_band import BandPoint, SlitBand
 from ..tolerances import COARSEN, CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
 from .fill import Fill, fill_region
 
-__all__ = ["Layout", "NewPoint", "Refusal", "SlitDoesNotFit", "lay_out", "matched_lips", "sharp_corners", "corner_cut",
+__all__ = ["Layout", "NewPoint", "Refusal", "SlitDoesNotFit", "Turn", "lay_out", "matched_lips", "sharp_corners", "corner_cut",
            "edge_of"]
 
 
@@ -56,6 +57,17 @@ class SlitDoesNotFit(Exception):
         self.detail = detail
 
 
+class Turn(NamedTuple):
+    """A corner of the tissue's new outline (the tissue on its left): the outline vertex's id
+    (``Layout.ids``' entry) and the rows of ``Fill.points`` of the vertex, the one before it
+    and the one after it."""
+
+    vertex: int
+    row: int
+    before: int
+    after: int
+
+
 @dataclass
 class Layout:
     """A region's fill: ``ids`` of its vertices (node ids >= 0, new points < 0: ``points[-1-k]``),
@@ -66,10 +78,9 @@ class Layout:
     fill: Fill
     chart: RegionChart
     fixed: set
-    turns: list
-    """(outline vertex id, its row, the row before it, the row after it) of every corner along
-    the tissue's new outline, the tissue on the left (rows of ``fill.points``): a vertex the
-    outline passes twice (where two pieces of tissue touch) has two."""
+    turns: list[Turn]
+    """Every corner along the tissue's new outline: a vertex the outline passes twice (where
+    two pieces of tissue touch) has two."""
     cut_across: set
     """Fixed outline edges the band cuts across (the region must grow across them)."""
     stations: list
@@ -145,34 +156,34 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
     fixed = {(min(a, b), max(a, b)) for a, b in region.outline() if not region.on_mesh_border(a, b)}
     kept = {(min(a, b), max(a, b)) for loop in loops for a, b in zip(loop, loop[1:] + loop[:1])}
     cut_across = {e for e in fixed if e not in kept and not {*e} & region.deleted}
-    turns = _corners([(b, where[b], where[a], where[c]) for loop in loops
+    turns = _corners([Turn(b, where[b], where[a], where[c]) for loop in loops
                       for a, b, c in zip(loop[-1:] + loop[:-1], loop, loop[1:] + loop[:1])], chart_points)
     band_lips = {(p.station, p.side): p.node for run in band.runs for p in run if p.node >= 0 and p.station >= 0}
     return Layout(ids, points, fill, chart, fixed, turns, cut_across, band.stations, band.resumed_at,
                    band_lips, matched)
 
 
-def _corners(turns: list, points: np.ndarray) -> list:
-    """The outline's ``turns`` (vertex, row, row before, row after) as the corners of tissue they
+def _corners(turns: list[Turn], points: np.ndarray) -> list[Turn]:
+    """The outline's ``turns`` as the corners of tissue they
     make: where the outline passes a vertex more than once (two pieces of tissue, or a hole and
     the outline, touching there: GEOS may pair the edges either way), each edge leaving it is
     paired with the edge coming in that is next counter-clockwise from it, the tissue on the
     left lying between them. ``points`` (n, 2): the rows' chart points."""
     rows: dict = {}
     for turn in turns:
-        rows.setdefault(turn[1], []).append(turn)
+        rows.setdefault(turn.row, []).append(turn)
     out = []
     for row, at in rows.items():
         if len(at) == 1:
             out += at
             continue
-        befores = np.array([t[2] for t in at])
+        befores = np.array([t.before for t in at])
         d = points[befores] - points[row]
         back = np.arctan2(d[:, 1], d[:, 0])  # directions of the edges coming in, seen from the vertex
         for v, _, _, after in at:
             d = points[after] - points[row]
             ccw = (back - np.arctan2(d[1], d[0])) % (2.0 * np.pi)
-            out.append((v, row, int(befores[np.argmin(ccw)]), after))
+            out.append(Turn(v, row, int(befores[np.argmin(ccw)]), after))
     return out
 
 

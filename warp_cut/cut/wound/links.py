@@ -161,8 +161,8 @@ def carry_links(editor: TopologyEditor, inc: Incision | None, report: EditReport
     mass take one. Returns how many were lost."""
     model = editor.model
     nodes = _link_takers(model, candidates)
-    gone_nodes = sorted({g for _, g, _, _ in report.orphaned_links} | {v for i, j, _, _ in report.severed_links
-                                                                      for v in (i, j)})
+    gone_nodes = sorted({link.gone for link in report.orphaned_links}
+                        | {v for link in report.severed_links for v in (link.i, link.j)})
     if inc is not None and len(nodes):  # one projection for the takers and the deleted nodes
         both = inc.project(model.points[np.concatenate([nodes, np.array(gone_nodes, dtype=np.int64)])])[1]
         sides, gone_side = both[:len(nodes)], dict(zip(gone_nodes, both[len(nodes):].tolist()))
