@@ -435,6 +435,7 @@ class Cutter:
         Returns the editor's report of the edit."""
         editor = self.editor
         inc.cut_point = piece.points[-1].copy()
+        self._resume_past_openings(inc, piece, cut)
         self._wound_links(inc, piece.points, cut)
         split = editor.split_pinched_nodes(editor.touched_nodes, positions)
         cut.inserted += split
@@ -444,6 +445,16 @@ class Cutter:
         takers = cut.lips + cut.inserted + list(editor.touched_nodes)
         self.totals["lost_links"] += carry_links(editor, inc, report, takers, reach=2.0 * self.spacing)
         return editor.report
+
+    def _resume_past_openings(self, inc: Incision, piece: Piece, cut: PieceCut) -> None:
+        """Until a lip pair stands since the incision last resumed at an opening, each piece is
+        cut from there again (``piece_to_cut``: the slit has no width to go on from yet). A piece
+        that ends over an opening (its last run waits for the blade, ``samples_to_cut``) with
+        still no pair has cut every run of it through, from opening to opening (a neck): nothing
+        before its end is left to cut, and cutting it again would re-mesh the slit just made as
+        tissue. The incision resumes at the piece's end."""
+        if not piece.on_tissue[-1] and cut.tip < 0 and inc.last_pair(self.model.active) < 0:
+            inc.resume_u = max(inc.resume_u, float(piece.u[-1]))
 
     def _record_latency(self, times: tuple) -> None:
         """Each stage's time [ms] (``STAGES``) from the perf_counter marks ``times``: the event's
