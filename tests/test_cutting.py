@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 
 from warp_cut import Material, Simulator, TissueModel, Tool, stable_time_step
 from warp_cut.cut.classes import NodeClass, SpringClass
-from warp_cut.cut.settings import CutSettings
 from warp_cut.cut.remesh.layout import Refusal, SlitDoesNotFit
+from warp_cut.cut.settings import CutSettings
 from warp_cut.cut.sweep.tissue_at_rest import on_triangles, tissue_near
 from warp_cut.cut.tolerances import EXIT_ADVANCE, LAST_STATION, MIN_ADVANCE
 from warp_cut.cut.topology import TopologyEditor

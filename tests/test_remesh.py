@@ -1,15 +1,19 @@
 """warp_cut/cut/remesh/cut_piece.py: node matching of the band's lips (the paper's Alg. 2), on a hand-built
-band beside hand-placed slit nodes."""
+band beside hand-placed slit nodes; the fill's refusals (``_fill``), on hand-made layouts."""
 
 from __future__ import annotations
 
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
-from warp_cut.cut.remesh.cut_piece import _match_bend_lips, _match_lips
+import warp_cut.cut.remesh.cut_piece as cut_piece
+from warp_cut.cut.remesh.cut_piece import _fill, _match_bend_lips, _match_lips
+from warp_cut.cut.remesh.fill import Fill
+from warp_cut.cut.remesh.layout import Layout, NewPoint, Refusal, SlitDoesNotFit
 from warp_cut.cut.sweep.slit_band import CUT_BEFORE, TIP, BandPoint, SlitBand
-from warp_cut.cut.tolerances import LIP_MATCH
+from warp_cut.cut.tolerances import LIP_MATCH, MAX_GROWTH, MIN_ANGLE_DEG
 
 S = 2e-3
 
@@ -84,3 +88,92 @@ def test_bend_matching_keeps_to_its_side_and_its_reach():
     b = band()
     assert _match_bend_lips(b, bend_incision([-1, 1], [0, -1]), model_with(points), LIP_MATCH * S) == 0
     assert [p.node for p in b.runs[0] if p.station == 0] == [-1, -1]
+
+
+# ----------------------------------------------------------------------------- the fill's refusals
+SLIVER = Fill(np.array([[0.0, 0.0], [S, 0.0], [0.0, 0.05 * S]]), np.array([[0, 1, 2]]), unrefined=1, input_count=3)
+"""One triangle whose smallest angle is 2.9 degrees, which the refinement left (a sharp corner)."""
+GOOD = Fill(np.array([[0.0, 0.0], [S, 0.0], [0.5 * S, 0.8 * S]]), np.array([[0, 1, 2]]), input_count=3)
+
+
+def layout_of(fill: Fill, *, ids=(0, 1, 2), points=(), split=(), fixed=(), band_lips=None) -> Layout:
+    """A layout of ``fill`` on node ids ``ids`` (new points < 0: ``points[-1 - v]``), its split and
+    fixed outline edges as given, no turns (so no sharp corner to mend)."""
+    fill.split_edges = set(split)
+    return Layout(list(ids), list(points), fill, None, set(fixed), [], set(), [], None, dict(band_lips or {}), {})
+
+
+class GrowingRegion:
+    """A region that records what it was asked to grow across."""
+
+    def __init__(self):
+        self.grown = []
+
+    def grow(self, edges) -> None:
+        self.grown.append(set(edges))
+
+
+def fill_with(monkeypatch, layouts, band=None):
+    """``_fill`` with ``lay_out`` giving ``layouts`` in turn (the last one from then on)."""
+    made = iter(layouts)
+    last = []
+
+    def lay_out(*_):
+        last[:] = [next(made, last[0] if last else None)]
+        return last[0]
+
+    monkeypatch.setattr(cut_piece, "lay_out", lay_out)
+    region = GrowingRegion()
+    inc = SimpleNamespace(spacing=S)
+    return region, lambda: _fill(None, inc, region, band or SlitBand(), None, set())
+
+
+def test_a_fill_left_under_the_smallest_angle_is_refused_not_written(monkeypatch):
+    """The refinement left a 2.9 degree triangle (it reports one unrefined) and nothing is left
+    to mend: the event is refused (``Refusal.UNDER_ANGLE``); a good fill is taken as it is."""
+    assert np.degrees(np.arctan(0.05)) < MIN_ANGLE_DEG
+    _, fill = fill_with(monkeypatch, [layout_of(SLIVER)])
+    with pytest.raises(SlitDoesNotFit) as refused:
+        fill()
+    assert refused.value.reason is Refusal.UNDER_ANGLE
+    _, fill = fill_with(monkeypatch, [layout_of(GOOD)])
+    layout, growth = fill()
+    assert layout.fill is GOOD and growth == 0
+
+
+def test_a_fill_splitting_a_fixed_edge_grows_the_region_then_is_refused(monkeypatch):
+    """A refinement that splits an edge the region shares with the mesh outside (a node there
+    would sit on the edge of a triangle outside): the region grows across that edge, and a fill
+    that still splits one after ``MAX_GROWTH`` growths is refused (``Refusal.SPLITS_OUTLINE``);
+    one that stops splitting after a growth is taken, with the growths counted."""
+    splitting = layout_of(GOOD, ids=(10, 11, 12), split=[(0, 1)], fixed=[(10, 11)])
+    region, fill = fill_with(monkeypatch, [splitting])
+    with pytest.raises(SlitDoesNotFit) as refused:
+        fill()
+    assert refused.value.reason is Refusal.SPLITS_OUTLINE
+    assert region.grown == [{(10, 11)}] * MAX_GROWTH
+    whole = layout_of(Fill(GOOD.points, GOOD.triangles, input_count=3), ids=(10, 11, 12), fixed=[(10, 11)])
+    region, fill = fill_with(monkeypatch, [layout_of(Fill(GOOD.points, GOOD.triangles, input_count=3),
+                                                     ids=(10, 11, 12), split=[(0, 1)], fixed=[(10, 11)]), whole])
+    layout, growth = fill()
+    assert layout is whole and growth == 1 and region.grown == [{(10, 11)}]
+
+
+def test_a_fill_that_does_not_lay_each_lip_once_is_refused(monkeypatch):
+    """The band asks for a lip pair (station 0) and the tip: a fill whose outline holds the tip
+    and only the left lip, or the left lip twice, is refused (``Refusal.SLIT_NOT_LAID``); one
+    that holds all three once is taken, as is one whose right lip was matched to a node."""
+    left, right, tip = lip(0.002, 2.5e-4, 1, 0), lip(0.002, -2.5e-4, -1, 0), BandPoint(np.zeros(3), 0, TIP, 0.003)
+    band_ = SlitBand(runs=[[left, tip, right]], stations=[0.002])
+    points = [NewPoint(left, np.zeros(2)), NewPoint(tip, np.zeros(2)), NewPoint(right, np.zeros(2)),
+              NewPoint(left, np.zeros(2))]
+    for ids in ((-1, -2, 0), (-1, -2, -4, -3)):
+        _, fill = fill_with(monkeypatch, [layout_of(Fill(GOOD.points, GOOD.triangles, input_count=len(ids)),
+                                                    ids=ids, points=points)], band_)
+        with pytest.raises(SlitDoesNotFit) as refused:
+            fill()
+        assert refused.value.reason is Refusal.SLIT_NOT_LAID
+    _, fill = fill_with(monkeypatch, [layout_of(GOOD, ids=(-1, -2, -3), points=points)], band_)
+    assert fill()[1] == 0
+    _, fill = fill_with(monkeypatch, [layout_of(GOOD, ids=(-1, -2, 7), points=points, band_lips={(0, -1): 7})], band_)
+    assert fill()[1] == 0

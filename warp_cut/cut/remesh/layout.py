@@ -27,8 +27,8 @@ from ..sweep.slit_band import BandPoint, SlitBand
 from ..tolerances import COARSEN, CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
 from .fill import Fill, fill_region
 
-__all__ = ["Layout", "NewPoint", "Refusal", "SlitDoesNotFit", "Turn", "lay_out", "matched_lips", "sharp_corners", "corner_cut",
-           "edge_of"]
+__all__ = ["Layout", "NewPoint", "Refusal", "SlitDoesNotFit", "Turn", "lay_out", "matched_lips", "sharp_corners",
+           "corner_cut", "edge_of"]
 
 
 class Refusal(enum.Enum):
