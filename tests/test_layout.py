@@ -1,5 +1,6 @@
-"""warp_cut/cut/remesh/layout.py on hand-built cases: the cut across a sharp corner of tissue
-(``corner_cut``) and the outline loops read back from GEOS (``_loops``)."""
+"""warp_cut/cut/remesh/layout.py on hand-built cases: the sharp corners of the new outline
+(``sharp_corners``), the cut across one (``corner_cut``) and the outline loops read back from
+GEOS (``_loops``)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,9 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.remesh.layout import Turn, _corners, _loops, corner_cut
+from warp_cut.cut.remesh.layout import Turn, _corners, _loops, corner_cut, sharp_corners
 from warp_cut.cut.sweep.slit_band import TIP, BandPoint
-from warp_cut.cut.tolerances import CORNER_CUT
+from warp_cut.cut.tolerances import CORNER_CUT, REFINE_ANGLE_DEG
 
 S = 2e-3
 
@@ -106,3 +107,33 @@ def test_where_a_slit_touches_a_border_at_a_node_the_corners_are_the_tissue_betw
         angle = math.degrees(math.atan2(a[0] * b[1] - a[1] * b[0], a @ b)) % 360.0
         assert math.isclose(angle, 15.0 if after == 1 else 25.0, abs_tol=1e-9)
     assert _corners([Turn(5, 0, 1, 2)], points) == [Turn(5, 0, 1, 2)]
+
+
+def test_corners_under_the_refinement_angle_are_the_sharp_ones_to_mend():
+    """Four corners of an outline: 10 and 21 degrees at new points (the fill cannot mend them:
+    each comes back with its triangle, to go with the band), 10 degrees at a node of the
+    region's outline between two nodes (None: the region takes its fan in), 10 degrees at a
+    protected node (a lip of the slit: left alone), and 23 and 90 degrees (the refinement's
+    own business)."""
+    rows, ids, turns = [], [], []
+
+    def corner(vertex: int, angle_deg: float, at, neighbours: tuple[int, int]):
+        k = len(rows)
+        a, b = 0.0, math.radians(angle_deg)
+        rows.extend([at, (at[0] + S * math.cos(b), at[1] + S * math.sin(b)),
+                     (at[0] + S * math.cos(a), at[1] + S * math.sin(a))])
+        ids.extend([vertex, *neighbours])
+        turns.append(Turn(vertex, k, k + 1, k + 2))
+
+    corner(-1, 10.0, (0.0, 0.0), (-2, -3))
+    corner(-4, REFINE_ANGLE_DEG - 1.0, (0.1, 0.0), (5, 6))
+    corner(7, 10.0, (0.2, 0.0), (8, 9))
+    corner(10, 10.0, (0.3, 0.0), (11, 12))
+    corner(-5, REFINE_ANGLE_DEG + 1.0, (0.4, 0.0), (13, 14))
+    corner(15, 90.0, (0.5, 0.0), (16, 17))
+    layout = SimpleNamespace(turns=turns, ids=ids, fill=SimpleNamespace(points=np.array(rows)))
+    found = sharp_corners(layout, protected={10})
+    assert [turn.vertex for turn, _ in found] == [-1, -4, 7]
+    for turn, wedge in found[:2]:
+        assert np.array_equal(wedge, layout.fill.points[[turn.before, turn.row, turn.after]])
+    assert found[2][1] is None
