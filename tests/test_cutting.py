@@ -1587,36 +1587,45 @@ def test_an_arc_across_a_zigzag_wound_leaves_no_free_piece_in_it():
     assert border_loop_count(sim.model.triangles) == 2  # the disk's rim and the one wound
 
 
+def last_of_strokes(sim, surface, cuts) -> object:
+    """Cut each (path, tool) of ``cuts`` in turn (tool: tilt [deg], radius, depth [m], speed [m/s],
+    length [m]), the earlier ones by ``one_valid_incision``; the last one's StrokeResult, judged
+    as the fuzz judges it (its coverage leaves out what the earlier strokes opened), after
+    asserting that it kept the cut's invariants, made one incision and left no hole."""
+    border = original_border(sim.model)
+    for path, tool in cuts[:-1]:
+        one_valid_incision(sim, surface, path, *tool)
+    path, (tilt, radius, depth, speed, length) = cuts[-1]
+    stroke = strokes.Stroke(surface, path, tilt=math.radians(tilt), radius=radius, depth=depth, speed=speed,
+                            tool_length=length, margin=3e-3)
+    result = run_stroke(sim, stroke, surface, border_keys=border)
+    assert result.exception is None, result.traceback
+    assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
+    assert result.incisions == 1 and result.unfilled_holes == 0
+    return result
+
+
 def test_a_zigzag_through_a_neck_between_two_wounds_goes_on_past_it():
     """A thin tool (r 0.6 mm on a 2.9 mm saddle mesh, 70 degrees) zigzags across two earlier
     wounds (fuzz seed 1). Between them it cut a neck of tissue through, from one wound to the
     other, with no lip pair in it (too short for one); the incision then went back to where it
     had resumed at the first wound for every later piece (no pair stood since), took the slit
     it had just cut for tissue, and every fill split its region's outline: ten events refused
-    and 0.53 of the stroke opened. A piece cut through from opening to opening leaves nothing
-    before its end to cut again: the incision resumes there and opens the rest of the stroke."""
+    and 0.53 of the stroke opened. A piece that goes back like that and does not fit is tried
+    once more from the cut point (``piece.goes_back``), and the rest of the stroke opens."""
     surface = saddle(0.04365928584277638, -20.37012806069866, 0.0028551680150088006, jitter=0.0, seed=2122172015)
     sim = supported_sim(surface, 0.016994566123543844)
-    border = original_border(sim.model)
-    earlier = [(strokes.zigzag([-0.008731857168555276, -0.009702063520616973], 0.6850659331964546,
-                               0.018491447947399382, 0.002903922676900491, 0.02893952090916288),
-                (40.508749037921504, 0.0006862478220407722, 0.0031504024351972338, 0.017561779253598885,
-                 0.042233878710463336)),
-               (strokes.zigzag([-0.006084752478645935, 0.002036456912225945], -0.9004742343285783,
-                               0.011048763998307176, 0.008405839199567548, 0.03410941302867886),
-                (43.43508360270144, 0.0056824879273695466, 0.0011526735784027778, 0.012153867876759431,
-                 0.042851828464078444))]
-    for path, tool in earlier:
-        one_valid_incision(sim, surface, path, *tool)
-    refused_before = sim.cutter.totals["skipped_events"]
-    path = strokes.zigzag([-0.0043032702010718715, -0.012537004907345573], 1.220401566539596, 0.023390209026714234,
-                          0.005788241988653325, 0.033934604263488495)
-    stroke = strokes.Stroke(surface, path, tilt=math.radians(70.47606442693089), radius=0.0006058673940795901,
-                            depth=0.0015856953460682702, speed=0.025792154578681916, tool_length=0.04838027493657575,
-                            margin=3e-3)
-    result = run_stroke(sim, stroke, surface, border_keys=border)
-    assert result.exception is None, result.traceback
-    assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
-    assert result.incisions == 1 and result.unfilled_holes == 0
-    assert sim.cutter.totals["skipped_events"] == refused_before, sim.cutter.skipped
+    cuts = [(strokes.zigzag([-0.008731857168555276, -0.009702063520616973], 0.6850659331964546,
+                            0.018491447947399382, 0.002903922676900491, 0.02893952090916288),
+             (40.508749037921504, 0.0006862478220407722, 0.0031504024351972338, 0.017561779253598885,
+              0.042233878710463336)),
+            (strokes.zigzag([-0.006084752478645935, 0.002036456912225945], -0.9004742343285783,
+                            0.011048763998307176, 0.008405839199567548, 0.03410941302867886),
+             (43.43508360270144, 0.0056824879273695466, 0.0011526735784027778, 0.012153867876759431,
+              0.042851828464078444)),
+            (strokes.zigzag([-0.0043032702010718715, -0.012537004907345573], 1.220401566539596,
+                            0.023390209026714234, 0.005788241988653325, 0.033934604263488495),
+             (70.47606442693089, 0.0006058673940795901, 0.0015856953460682702, 0.025792154578681916,
+              0.04838027493657575))]
+    result = last_of_strokes(sim, surface, cuts)
     assert result.coverage >= 0.9

@@ -47,10 +47,10 @@ from .contact.surface import Crossing
 from .curve.incision import Incision
 from .events import EventClock
 from .host import CutHost
-from .remesh.cut_piece import PieceCut, SlitDoesNotFit, cut_piece
+from .remesh.cut_piece import PieceCut, Refusal, SlitDoesNotFit, cut_piece
 from .remesh.flips import flip_to_delaunay
 from .settings import CutSettings
-from .sweep.piece import Piece, piece_to_cut, without_necks
+from .sweep.piece import Piece, goes_back, piece_to_cut, without_necks
 from .sweep.tissue_at_rest import joined_start, rest_point_on_tissue
 from .tolerances import EXIT_ADVANCE, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
 from .topology import NodePositions, TopologyEditor
@@ -382,14 +382,21 @@ class Cutter:
         incision's last cut (nothing waits for a later event). False if nothing was cut (too
         short a piece, a slit that does not fit, a joined start the blade's travel has not yet
         kept or undone: the next event tries again)."""
-        piece = piece_to_cut(self.model, partial(self.contact.nodes_near_at_rest, sim), inc, tool, upto, final)
+        nodes_near = partial(self.contact.nodes_near_at_rest, sim)
+        piece = piece_to_cut(self.model, nodes_near, inc, tool, upto, final)
         if piece is None:
             return False
         positions = NodePositions(self._positions_view(sim))
         self.editor.begin()
         t3 = time.perf_counter()
         cut = self._cut_piece(inc, piece, positions, tool)
-        if cut is None:
+        if isinstance(cut, Refusal) and goes_back(self.model, inc):  # once more from the cut point
+            again = piece_to_cut(self.model, nodes_near, inc, tool, upto, final, from_cut_point=True)
+            if again is not None:
+                piece, cut = again, self._cut_piece(inc, again, positions, tool)
+        if isinstance(cut, Refusal):
+            self.totals["skipped_events"] += 1
+            self.skipped[cut.value] = self.skipped.get(cut.value, 0) + 1
             return False
         t4 = time.perf_counter()
         report = self._finish_edit(inc, piece, cut, positions, final)
@@ -400,17 +407,16 @@ class Cutter:
         self._record_latency((*times, t3, t4, t5, t6))
         return True
 
-    def _cut_piece(self, inc: Incision, piece: Piece, positions: NodePositions, tool: Tool | None) -> PieceCut | None:
-        """Stages 1 and 3 on ``piece`` (``cut_piece.cut_piece``, in the edit begun); None if its slit
-        does not fit (counted in ``skipped`` by the reason)."""
+    def _cut_piece(self, inc: Incision, piece: Piece, positions: NodePositions,
+                   tool: Tool | None) -> PieceCut | Refusal:
+        """Stages 1 and 3 on ``piece`` (``cut_piece.cut_piece``, in the edit begun); why not, if
+        its slit does not fit (nothing was edited then)."""
         try:
             return self._remesh(inc, piece, positions, tool)
         except SlitDoesNotFit as why:
-            self.totals["skipped_events"] += 1
-            self.skipped[why.reason.value] = self.skipped.get(why.reason.value, 0) + 1
             if not (piece.on_tissue & ~piece.necks).any():
                 inc.cut_point = piece.points[-1].copy()  # only a strip beside an opening or a neck: it does not fit
-            return None
+            return why.reason
 
     def _remesh(self, inc: Incision, piece: Piece, positions: NodePositions, tool: Tool | None) -> PieceCut:
         """``cut_piece.cut_piece`` on ``piece``; where its slit does not fit and the piece crosses a
@@ -435,7 +441,6 @@ class Cutter:
         Returns the editor's report of the edit."""
         editor = self.editor
         inc.cut_point = piece.points[-1].copy()
-        self._resume_past_openings(inc, piece, cut)
         self._wound_links(inc, piece.points, cut)
         split = editor.split_pinched_nodes(editor.touched_nodes, positions)
         cut.inserted += split
@@ -445,16 +450,6 @@ class Cutter:
         takers = cut.lips + cut.inserted + list(editor.touched_nodes)
         self.totals["lost_links"] += carry_links(editor, inc, report, takers, reach=2.0 * self.spacing)
         return editor.report
-
-    def _resume_past_openings(self, inc: Incision, piece: Piece, cut: PieceCut) -> None:
-        """Until a lip pair stands since the incision last resumed at an opening, each piece is
-        cut from there again (``piece_to_cut``: the slit has no width to go on from yet). A piece
-        that ends over an opening (its last run waits for the blade, ``samples_to_cut``) with
-        still no pair has cut every run of it through, from opening to opening (a neck): nothing
-        before its end is left to cut, and cutting it again would re-mesh the slit just made as
-        tissue. The incision resumes at the piece's end."""
-        if not piece.on_tissue[-1] and cut.tip < 0 and inc.last_pair(self.model.active) < 0:
-            inc.resume_u = max(inc.resume_u, float(piece.u[-1]))
 
     def _record_latency(self, times: tuple) -> None:
         """Each stage's time [ms] (``STAGES``) from the perf_counter marks ``times``: the event's

@@ -52,7 +52,7 @@ from ..topology import NodePositions, TopologyEditor
 from .fill import Fill
 from .layout import Layout, Refusal, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
 
-__all__ = ["PieceCut", "NewStation", "SlitDoesNotFit", "cut_piece"]
+__all__ = ["PieceCut", "NewStation", "Refusal", "SlitDoesNotFit", "cut_piece"]
 
 
 class NewStation(NamedTuple):

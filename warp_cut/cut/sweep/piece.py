@@ -32,7 +32,7 @@ from .event_band import clearance, edge_clearance
 from .slit_band import samples_to_cut
 from .tissue_at_rest import necks, tissue_and_edge
 
-__all__ = ["Piece", "piece_to_cut", "without_necks"]
+__all__ = ["Piece", "goes_back", "piece_to_cut", "without_necks"]
 
 
 @dataclass
@@ -59,18 +59,21 @@ def without_necks(model, inc: Incision, piece: Piece) -> Piece:
     return Piece(piece.u, piece.points, on_tissue, beside, piece.near, np.zeros_like(piece.necks))
 
 
-def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: float, final: bool) -> Piece | None:
+def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: float, final: bool, *,
+                 from_cut_point: bool = False) -> Piece | None:
     """The samples of the piece of ``inc``'s curve from its last cut to arc length ``upto`` [m]
     that this event cuts, or None while it waits (see the module docstring). ``nodes_near(a, b,
     radius)``: the live nodes whose rest positions lie within ``radius`` [m] of the segment a-b
-    (``BladeContact.nodes_near_at_rest``); ``tool``: the tool now (None: the blade has left)."""
+    (``BladeContact.nodes_near_at_rest``); ``tool``: the tool now (None: the blade has left);
+    ``from_cut_point``: from the cut point even while no lip pair stands (``goes_back``)."""
     s = inc.spacing
     if inc.entry is not None:  # the blade's travel has not yet kept or undone a joined start
         if not final:
             return None
         inc.entry = None
     unopened = inc.last_pair(model.active) < 0  # until a lip pair stands, cut from the start again
-    u_from = inc.resume_u if inc.cut_point is None or unopened else float(inc.project(inc.cut_point[None])[0][0])
+    back = inc.cut_point is None or unopened and not from_cut_point
+    u_from = inc.resume_u if back else float(inc.project(inc.cut_point[None])[0][0])
     if upto - u_from < MIN_ADVANCE * s:
         return None
     if tool is not None and unopened and inc.starts_on_tissue and inc.resume_u == 0.0 \
@@ -98,6 +101,18 @@ def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: floa
             inc.cut_point = points[stop].copy()
         return None
     return Piece(u, points, on_tissue, beside, near, crossed)
+
+
+def goes_back(model, inc: Incision) -> bool:
+    """Whether ``piece_to_cut`` goes back behind the cut point: no lip pair stands since the
+    incision started or resumed at an opening, so each piece is cut from there again (the slit
+    has no width to go on from yet), and the cut point lies further on. Where such a piece does
+    not fit, the Cutter tries once more from the cut point: what lies behind it may be cut
+    through already (a neck from one wound to the next, with no room for a pair), and a piece
+    taking that slit for tissue again is refused at every event."""
+    if inc.cut_point is None or inc.last_pair(model.active) >= 0:
+        return False
+    return float(inc.project(inc.cut_point[None])[0][0]) > inc.resume_u + MIN_ADVANCE * inc.spacing
 
 
 def _last_over_an_opening(over: np.ndarray) -> int | None:
