@@ -9,7 +9,7 @@ SCENE  ?= straight_incision
 PORT   ?= 0
 APT    := $(if $(filter 0,$(shell id -u)),,sudo )apt-get
 
-.PHONY: install demo test test-browser lint live bench fuzz clean
+.PHONY: install demo test test-browser lint live bench fuzz mutants clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
@@ -53,6 +53,12 @@ FUZZ_ARGS ?= --events 10000 --seed 1 --max-minutes 75
 fuzz: $(STAMP)
 	nice $(PY) benchmarks/fuzz_cut.py $(FUZZ_ARGS)
 	nice $(PY) benchmarks/fuzz_cut.py --named
+
+# Mutation testing of the cut's Stage 3 (not part of `make test`; 15-30 min): each of a list of
+# deliberate defects in the re-mesh is written into a copy of the package and the tests run
+# against it; report in benchmarks/results/mutants.md (+ .csv).
+mutants: $(STAMP)
+	nice $(PY) benchmarks/mutants.py
 
 clean:
 	rm -rf $(VENV) $(OUT) build *.egg-info
