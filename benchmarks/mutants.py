@@ -191,16 +191,21 @@ def main(argv=None) -> int:
         row = rows[-1]
         print(f"{row['mutant']:26s} {row['outcome']:9s} {row['tier']:8s} {row['seconds']:7.1f}s {row['caught_by']}",
               flush=True)
-    killed = sum(r["outcome"] == "killed" for r in rows)
-    survived = [r["mutant"] for r in rows if r["outcome"] == "survived"]
     if not args.only:
         write_csv("mutants", rows)
-        text = (f"{__doc__.split(chr(10) + chr(10))[1]}\n\nKilled: **{killed} of {len(rows)}**"
-                + (f"; survived: {', '.join(survived)}" if survived else "") + ".\n\n"
-                + markdown_table(rows, ["mutant", "module", "defect", "outcome", "tier", "caught_by", "seconds"])
-                + "\n\nCommand: `python benchmarks/mutants.py` (`make mutants`).\n")
-        write_markdown("mutants", "Mutation testing of the cut's Stage 3", text)
-    return 0 if not survived else 1
+        write_report(rows)
+    return 0 if all(r["outcome"] == "killed" for r in rows) else 1
+
+
+def write_report(rows: list[dict]) -> None:
+    """benchmarks/results/mutants.md from the rows of a whole run."""
+    killed = sum(r["outcome"] == "killed" for r in rows)
+    missed = [r["mutant"] for r in rows if r["outcome"] != "killed"]
+    about = "\n\n".join(__doc__.split("\n\n")[1:4])  # what a mutant is, the two tiers, what killed means
+    text = (f"{about}\n\nKilled: **{killed} of {len(rows)}**" + (f"; not killed: {', '.join(missed)}" if missed else "")
+            + ".\n\n" + markdown_table(rows, ["mutant", "module", "defect", "outcome", "tier", "caught_by", "seconds"])
+            + "\n\nCommand: `python benchmarks/mutants.py` (`make mutants`).\n")
+    write_markdown("mutants", "Mutation testing of the cut's Stage 3", text)
 
 
 if __name__ == "__main__":
