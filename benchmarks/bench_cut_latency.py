@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 from warp_cut import Simulator, TissueModel
-from warp_cut.cut.cutter import STAGES
 from warp_cut.cut.settings import CutSettings
+from warp_cut.cut.tally import STAGES
 from warp_cut.sim.warp_config import quiet_warp
 
 SIZES = {"1k": (0.07, 0.05), "10k": (0.22, 0.16), "100k": (0.70, 0.50)}

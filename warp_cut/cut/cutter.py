@@ -52,27 +52,18 @@ from .remesh.flips import flip_to_delaunay
 from .settings import CutSettings
 from .sweep.piece import Piece, goes_back, piece_to_cut, without_necks
 from .sweep.tissue_at_rest import joined_start, rest_point_on_tissue
+from .tally import CutTally
 from .tolerances import EXIT_ADVANCE, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
 from .topology import NodePositions, TopologyEditor
 from .wound.islands import FreedPieces
 from .wound.links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 from .wound.measures import gap_profile, incision_width, lip_deviation, path_coverage
 
-__all__ = ["Cutter", "STAGES"]
+__all__ = ["Cutter"]
 
 END_TRIES = 4
 """Tries to cut an ended incision's slit to its end, each a quarter spacing shorter (a fill that
 does not lay the whole slit is refused: ``SlitDoesNotFit``)."""
-
-STAGES = ("locate", "curve", "select_piece", "remesh", "links_and_islands", "device_update")
-"""Names of the timed parts of a cut event (latency in metrics.json), in their order: the
-blade's crossing and its material point; the incision curve's refit (Stage 2); the piece of
-curve the event cuts; Stages 1 and 3's re-mesh (region, band, fill, writing it); the wound's
-links, split nodes, islands and the edit's finish; the edit mirrored on the device."""
-
-_TOTALS = ("deleted_nodes", "deleted_springs", "residual_links", "carried_links", "lost_links", "lip_nodes",
-           "inserted_nodes", "new_springs", "removed_fragments", "removed_islands", "removed_scraps", "region_growths",
-           "unrefined_triangles", "delaunay_flips", "events", "skipped_events")
 
 
 class Cutter:
@@ -114,16 +105,15 @@ class Cutter:
         """The tool's tip at the last cut event [m] (None: no tool then)."""
         self._linked: set[int] = set()
         """The tissue's springs a cut has linked (once, however many incisions cross one)."""
-        self.latency_ms = {name: [] for name in STAGES}
-        self.totals = dict.fromkeys(_TOTALS, 0)
+        self.tally = CutTally()
+        """What the events counted and how long they took."""
+        self.totals, self.skipped, self.latency_ms = self.tally.totals, self.tally.skipped, self.tally.latency_ms
+        """The tally's counts (metrics.json's ``cut``), refusals by reason, and stage times [ms]."""
         self.new_triangles: set[int] = set()
         """Live triangles the cut made (slots)."""
         self.freed = FreedPieces(self.editor, SCRAP_AREA * self.spacing**2, SCRAP_TRIANGLES, self.settings.keep_islands)
         """Removes the scraps and islands an edit leaves (a scrap holding the newest lip pair of
         the incision being cut waits: its next event closes onto it)."""
-        self.skipped: dict[str, int] = {}
-        """Why events were left for the next one (the slit did not fit its region): the
-        ``Refusal``'s message -> count."""
         self._loops_before = border_loop_count(model.triangles)
         for module in (cut_kernels, scatter):  # compiled now, so no cut event pays for it
             wp.load_module(module, device=device)
@@ -395,16 +385,17 @@ class Cutter:
             if again is not None:
                 piece, cut = again, self._cut_piece(inc, again, positions, tool)
         if isinstance(cut, Refusal):
-            self.totals["skipped_events"] += 1
-            self.skipped[cut.value] = self.skipped.get(cut.value, 0) + 1
+            self.tally.refused(cut)
             return False
         t4 = time.perf_counter()
         report = self._finish_edit(inc, piece, cut, positions, final)
         t5 = time.perf_counter()
         self._apply(sim, report, positions)
         t6 = time.perf_counter()
-        self._count(report, cut)
-        self._record_latency((*times, t3, t4, t5, t6))
+        self.tally.edit(report, cut)
+        if cut.met_border and self.current is not None:  # not at an ended incision's last cut
+            self.current.reached_border = True
+        self.tally.times((*times, t3, t4, t5, t6))
         return True
 
     def _cut_piece(self, inc: Incision, piece: Piece, positions: NodePositions,
@@ -451,14 +442,6 @@ class Cutter:
         self.totals["lost_links"] += carry_links(editor, inc, report, takers, reach=2.0 * self.spacing)
         return editor.report
 
-    def _record_latency(self, times: tuple) -> None:
-        """Each stage's time [ms] (``STAGES``) from the perf_counter marks ``times``: the event's
-        start, after locating, after the curve, before and after the re-mesh, after the links
-        and islands, after mirroring the edit."""
-        t0, t1, t2, t3, t4, t5, t6 = times
-        for name, dt in zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, t6 - t5)):
-            self.latency_ms[name].append(1e3 * dt)
-
     def _wound_links(self, inc: Incision, piece: np.ndarray, cut: PieceCut) -> None:
         """The links of the tissue's springs ``piece`` crosses (the paper's links model)."""
         if self.originals is not None:
@@ -475,22 +458,6 @@ class Cutter:
         """The two lip nodes of ``inc``'s newest lip pair (none if it has none)."""
         k = inc.last_pair(self.model.active)
         return {inc.left[k], inc.right[k]} if k >= 0 else set()
-
-    def _count(self, report, cut: PieceCut) -> None:
-        tot = self.totals
-        tot["events"] += 1
-        tot["deleted_nodes"] += len(cut.deleted)
-        tot["deleted_springs"] += len(report.deleted_springs)
-        tot["residual_links"] += len(report.residual_links)
-        tot["carried_links"] += len(report.carried_links)
-        tot["lip_nodes"] += len(cut.lips)
-        tot["inserted_nodes"] += len(cut.inserted)
-        tot["new_springs"] += len(report.new_springs)
-        tot["removed_fragments"] += len(report.removed_fragments)
-        tot["region_growths"] += cut.growth
-        tot["unrefined_triangles"] += cut.unrefined
-        if cut.met_border and self.current is not None:
-            self.current.reached_border = True
 
     def _apply(self, sim: CutHost, report, positions: NodePositions) -> None:
         """Keep ``new_triangles`` up to date and tell the host what the edit changed
@@ -571,17 +538,12 @@ class Cutter:
         return np.flatnonzero(member(live, np.fromiter(self.new_triangles, dtype=np.int64)))
 
     def event_latency_ms(self) -> np.ndarray:
-        """Each cut event's whole time [ms] (events,): the sum of its stages (``STAGES``)."""
-        return np.sum([self.latency_ms[name] for name in STAGES], axis=0).reshape(-1)
+        """Each cut event's whole time [ms] (events,): the sum of its stages (``tally.STAGES``)."""
+        return self.tally.event_latency_ms()
 
     def latency_summary(self) -> dict:
         """p50 / p99 / max latency per stage [ms] over the cut events."""
-        out = {}
-        for name, values in self.latency_ms.items():
-            v = np.asarray(values)
-            out[name] = ({"p50_ms": float(np.percentile(v, 50)), "p99_ms": float(np.percentile(v, 99)),
-                          "max_ms": float(v.max()), "events": int(len(v))} if len(v) else None)
-        return out
+        return self.tally.latency_summary()
 
     def gap_profile(self, positions: np.ndarray) -> dict:
         """The opening of every incision along its length: one row per station whose two lip

@@ -276,15 +276,7 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
         else:  # from an opening
             begins = "opening"
             band.resumed_at = ua
-            back = _junction(inc, ua, -1, 3.0 * extension, borders, points)
-            if back is None:
-                left.append(_point(inc, ua - extension, 1, EXTENSION))
-                right.append(_point(inc, ua - extension, -1, EXTENSION))
-            else:
-                meet_left, chain, meet_right = back
-                left.append(meet_left)
-                right.append(meet_right)
-                left[:0] = [BandPoint(points[w], 0, JUNCTION, ua, w) for w in chain]
+            left, right = _from_opening(inc, ua, extension, borders, points)
             lo = ua + margin
             wanted = inc.stations_from(ua + FIRST_STATION * inc.spacing, ub - margin)
         hi = ub if to_tip else ub - margin
@@ -296,19 +288,33 @@ def plan_band(inc: Incision, u: np.ndarray, on_tissue: np.ndarray, *, stations: 
                 band.stations.append(float(s))
                 left.append(_point(inc, s, 1, k))
                 right.append(_point(inc, s, -1, k))
-        if to_tip:
-            front = [_point(inc, ub, 0, TIP)]
-        else:  # into an opening
-            ahead = _junction(inc, ub, 1, 3.0 * extension, borders, points)
-            if ahead is None:
-                front = [_point(inc, ub + extension, 1, EXTENSION), _point(inc, ub + extension, -1, EXTENSION)]
-            else:
-                meet_left, chain, meet_right = ahead
-                front = [meet_left] + [BandPoint(points[w], 0, JUNCTION, ub, w) for w in chain[::-1]] + [meet_right]
+        front = [_point(inc, ub, 0, TIP)] if to_tip else _into_opening(inc, ub, extension, borders, points)
         if _sliver_wedge(left, right, front):
             continue
         band.runs.append(left + front + right[::-1])
     return band
+
+
+def _from_opening(inc: Incision, ua: float, extension: float, borders, points: np.ndarray) -> tuple[list, list]:
+    """The left and right lip lines' first points of a run that begins at arc length ``ua`` [m]
+    at an opening: where they meet its border (and the border's nodes between them, on the
+    left), else ``extension`` [m] back into the opening."""
+    back = _junction(inc, ua, -1, 3.0 * extension, borders, points)
+    if back is None:
+        return [_point(inc, ua - extension, 1, EXTENSION)], [_point(inc, ua - extension, -1, EXTENSION)]
+    meet_left, chain, meet_right = back
+    return [BandPoint(points[w], 0, JUNCTION, ua, w) for w in chain] + [meet_left], [meet_right]
+
+
+def _into_opening(inc: Incision, ub: float, extension: float, borders, points: np.ndarray) -> list:
+    """The front of a run that ends at arc length ``ub`` [m] in an opening, from its left lip
+    line to its right: where they meet the opening's border, with the border's nodes between,
+    else ``extension`` [m] on into the opening."""
+    ahead = _junction(inc, ub, 1, 3.0 * extension, borders, points)
+    if ahead is None:
+        return [_point(inc, ub + extension, 1, EXTENSION), _point(inc, ub + extension, -1, EXTENSION)]
+    meet_left, chain, meet_right = ahead
+    return [meet_left] + [BandPoint(points[w], 0, JUNCTION, ub, w) for w in chain[::-1]] + [meet_right]
 
 
 def _station_halfway(begins: str, to_tip: bool, ua: float, ub: float, lo: float, hi: float) -> list[float]:
