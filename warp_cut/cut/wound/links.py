@@ -107,14 +107,16 @@ def link_crossed_springs(editor: TopologyEditor, inc: Incision, springs: Origina
     active = editor.model.active
     ends = springs.pairs[[k for k, _ in fresh]]                                   # (f, 2)
     sides = inc.project(editor.model.points[ends.reshape(-1)])[1].reshape(-1, 2)  # one projection for all
-    crossing_u = inc.project(np.array([x for _, x in fresh]))[0]
-    direct, direct_rest = [], []
-    for (k, _), (i, j), side, u in zip(fresh, ends.tolist(), sides, crossing_u.tolist()):
+    direct, direct_rest, waiting = [], [], []
+    for (k, x), (i, j), side in zip(fresh, ends.tolist(), sides):
         if active[i] and active[j] and side[0] != side[1]:  # both live, on either side of the curve
             direct.append((i, j))
             direct_rest.append(springs.rest_lengths[k])
         else:
-            inc.pending_links.append((float(u), float(springs.rest_lengths[k])))
+            waiting.append((k, x))
+    if waiting:  # where along the curve each crossed, to find its lip pair later
+        crossing_u = inc.project(np.array([x for _, x in waiting]))[0]
+        inc.pending_links += [(float(u), float(springs.rest_lengths[k])) for (k, _), u in zip(waiting, crossing_u)]
     editor.make_links(direct, direct_rest, once_per_pair=False)
     settle_pending_links(editor, inc, reach=LINK_REACH * inc.spacing)
 
