@@ -105,12 +105,16 @@ def link_crossed_springs(editor: TopologyEditor, inc: Incision, springs: Origina
         return
     seen.update(k for k, _ in fresh)
     active = editor.model.active
-    ends = springs.pairs[[k for k, _ in fresh]]                                   # (f, 2)
-    sides = inc.project(editor.model.points[ends.reshape(-1)])[1].reshape(-1, 2)  # one projection for all
+    ends = springs.pairs[[k for k, _ in fresh]].tolist()
+    live = [row for row, (i, j) in enumerate(ends) if active[i] and active[j]]
+    apart = set()
+    if live:  # which live pairs lie on either side of the curve: one projection for all their ends
+        sides = inc.project(editor.model.points[np.array([ends[row] for row in live]).reshape(-1)])[1]
+        apart = {row for row, (a, b) in zip(live, sides.reshape(-1, 2)) if a != b}
     direct, direct_rest, waiting = [], [], []
-    for (k, x), (i, j), side in zip(fresh, ends.tolist(), sides):
-        if active[i] and active[j] and side[0] != side[1]:  # both live, on either side of the curve
-            direct.append((i, j))
+    for row, (k, x) in enumerate(fresh):
+        if row in apart:
+            direct.append(tuple(ends[row]))
             direct_rest.append(springs.rest_lengths[k])
         else:
             waiting.append((k, x))
