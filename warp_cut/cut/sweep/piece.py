@@ -72,8 +72,7 @@ def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: floa
             return None
         inc.entry = None
     unopened = inc.last_pair(model.active) < 0  # until a lip pair stands, cut from the start again
-    back = inc.cut_point is None or unopened and not from_cut_point
-    u_from = inc.resume_u if back else float(inc.project(inc.cut_point[None])[0][0])
+    u_from = _start(inc, unopened and not from_cut_point)
     if upto - u_from < MIN_ADVANCE * s:
         return None
     if tool is not None and unopened and inc.starts_on_tissue and inc.resume_u == 0.0 \
@@ -110,9 +109,17 @@ def goes_back(model, inc: Incision) -> bool:
     not fit, the Cutter tries once more from the cut point: what lies behind it may be cut
     through already (a neck from one wound to the next, with no room for a pair), and a piece
     taking that slit for tissue again is refused at every event."""
-    if inc.cut_point is None or inc.last_pair(model.active) >= 0:
+    if inc.last_pair(model.active) >= 0:
         return False
-    return float(inc.project(inc.cut_point[None])[0][0]) > inc.resume_u + MIN_ADVANCE * inc.spacing
+    return _start(inc, back=False) > _start(inc, back=True) + MIN_ADVANCE * inc.spacing
+
+
+def _start(inc: Incision, back: bool) -> float:
+    """Arc length [m] a piece starts at: where the incision started or resumed if ``back`` (or
+    nothing was cut yet), else the cut point."""
+    if back or inc.cut_point is None:
+        return inc.resume_u
+    return float(inc.project(inc.cut_point[None])[0][0])
 
 
 def _last_over_an_opening(over: np.ndarray) -> int | None:
