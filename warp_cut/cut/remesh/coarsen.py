@@ -20,6 +20,7 @@ import math
 import numpy as np
 import pythoncdt as cdt
 
+from ...mesh.geometry import half_edges
 from ..chart import chart_min_angles, chart_signed_areas
 
 __all__ = ["coarsen"]
@@ -56,8 +57,7 @@ def coarsen(points: np.ndarray, triangles: np.ndarray, first_inserted: int, shor
 def _any_short_inserted_edge(points: np.ndarray, triangles: np.ndarray, first_inserted: int, short: float) -> bool:
     """Whether an edge of the triangles with an inserted point at an end is shorter than
     ``short`` [m]."""
-    triangles = np.asarray(triangles).reshape(-1, 3)
-    ends = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 3, 2)
+    ends = half_edges(np.asarray(triangles).reshape(-1, 3)).reshape(-1, 3, 2)
     lengths = np.linalg.norm(points[ends[..., 0]] - points[ends[..., 1]], axis=2)
     return bool(np.any((lengths < short) & (ends.max(axis=2) >= first_inserted)))
 

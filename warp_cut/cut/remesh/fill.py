@@ -20,6 +20,7 @@ import numpy as np
 import pythoncdt as cdt
 
 from ...errors import InputError
+from ...mesh.geometry import half_edges
 from ..chart import chart_min_angles, chart_signed_areas
 from .coarsen import coarsen
 
@@ -107,7 +108,7 @@ def fill_region(points: np.ndarray, edges, *, min_angle_deg: float, min_edge: fl
 
 def _edges_of(triangles: np.ndarray) -> set:
     """The sorted vertex pairs of the triangles' edges."""
-    pairs = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    pairs = np.sort(half_edges(triangles), axis=1)
     return {(int(a), int(b)) for a, b in pairs}
 
 
