@@ -821,13 +821,14 @@ def assert_no_hole_after(sim, surface, path, tool, min_coverage: float = 0.95) -
     return result.coverage
 
 
-def one_valid_incision(sim, surface, path, tilt_deg, radius, depth, speed, tool_length):
+def one_valid_incision(sim, surface, path, tilt_deg, radius, depth, speed, tool_length, border_keys=None):
     """Cut ``path`` with a tool of the given tilt [deg], radius, depth [m], speed [m/s] and
     length [m]; assert no exception, no edit error (folds by the motion aside) and one
-    incision; return the StrokeResult."""
+    incision; return the StrokeResult (``border_keys``: the tissue's own border, whose
+    openings its coverage leaves out, ``run_stroke``)."""
     stroke = strokes.Stroke(surface, path, tilt=math.radians(tilt_deg), radius=radius, depth=depth, speed=speed,
                             tool_length=tool_length, margin=3e-3)
-    result = run_stroke(sim, stroke, surface)
+    result = run_stroke(sim, stroke, surface, border_keys=border_keys)
     assert result.exception is None, result.traceback
     assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
     assert result.incisions == 1
@@ -1595,13 +1596,9 @@ def last_of_strokes(sim, surface, cuts) -> object:
     border = original_border(sim.model)
     for path, tool in cuts[:-1]:
         one_valid_incision(sim, surface, path, *tool)
-    path, (tilt, radius, depth, speed, length) = cuts[-1]
-    stroke = strokes.Stroke(surface, path, tilt=math.radians(tilt), radius=radius, depth=depth, speed=speed,
-                            tool_length=length, margin=3e-3)
-    result = run_stroke(sim, stroke, surface, border_keys=border)
-    assert result.exception is None, result.traceback
-    assert not {name for name in result.violations if not name.startswith("tri_flipped")}, result.violations
-    assert result.incisions == 1 and result.unfilled_holes == 0
+    path, tool = cuts[-1]
+    result = one_valid_incision(sim, surface, path, *tool, border_keys=border)
+    assert result.unfilled_holes == 0
     return result
 
 
