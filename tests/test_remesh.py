@@ -3,6 +3,7 @@ band beside hand-placed slit nodes; the fill's refusals (``_fill``), on hand-mad
 
 from __future__ import annotations
 
+import itertools
 from types import SimpleNamespace
 
 import numpy as np
@@ -115,14 +116,8 @@ class GrowingRegion:
 
 def fill_with(monkeypatch, layouts, band=None):
     """``_fill`` with ``lay_out`` giving ``layouts`` in turn (the last one from then on)."""
-    made = iter(layouts)
-    last = []
-
-    def lay_out(*_):
-        last[:] = [next(made, last[0] if last else None)]
-        return last[0]
-
-    monkeypatch.setattr(cut_piece, "lay_out", lay_out)
+    made = itertools.chain(layouts, itertools.repeat(layouts[-1]))
+    monkeypatch.setattr(cut_piece, "lay_out", lambda *_: next(made))
     region = GrowingRegion()
     inc = SimpleNamespace(spacing=S)
     return region, lambda: _fill(None, inc, region, band or SlitBand(), None, set())
