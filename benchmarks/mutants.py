@@ -33,7 +33,8 @@ from common import markdown_table, write_csv, write_markdown
 ROOT = Path(__file__).resolve().parent.parent
 
 UNIT_TESTS = ("test_fill.py", "test_coarsen.py", "test_remesh.py", "test_layout.py", "test_flips.py",
-              "test_chart.py", "test_region.py", "test_event_band.py", "test_slit_band.py", "test_islands.py")
+              "test_chart.py", "test_region.py", "test_event_band.py", "test_slit_band.py", "test_islands.py",
+              "test_placement.py")
 """Tier 1: the unit tests of Stage 3's pieces."""
 STROKE_TESTS = ("test_cutting.py", "test_cut_fuzz.py", "test_strokes.py", "test_incision_sets.py")
 """Tier 2: whole strokes, run only against the mutants tier 1 let through."""
@@ -94,6 +95,12 @@ MUTANTS = (
            (("rest_new, current_new = lift(fill.points[new_rows])",
              "rest_new, current_new = lift(fill.points[new_rows])[0], lift(fill.points[new_rows])[0]"),),
            "new nodes placed at their rest positions instead of where the tissue lies now"),
+    Mutant("folded_new_triangles_kept", "cut/remesh/placement.py",
+           (("folded = folded_against(x, touching, maps)", "folded = np.zeros(len(touching), dtype=bool)"),),
+           "new nodes of a triangle born folded over in the tool's dent are left there"),
+    Mutant("tool_nodes_in_tissue_map", "cut/remesh/placement.py",
+           (("sources = old & ~held_by(x, tool)", "sources = old"),),
+           "the nodes the tool pushes count as the tissue round a new node"),
     Mutant("inner_nodes_on_outline", "cut/remesh/layout.py",
            (("away = shapely.distance(rim, shapely.points(xy)) > clear", "away = xy[:, 0] == xy[:, 0]"),),
            "the fill keeps region nodes however near the new outline they lie"),

@@ -135,3 +135,12 @@ nearer than the edge clearance) whose strip of tissue the blade cuts off. Shorte
 a stroke meets or leaves a wound at a steep angle; the band's ends join those as before. One
 spacing: a stroke crossing a wound 16 degrees off its line runs 3 mm (1.5 s at 2 mm) within the
 clearance of it on each side, which at 2 spacings had been left uncut."""
+
+TOOL_HOLD = 1.5
+"""Nodes nearer the tool's axis than TOOL_HOLD tool radii are held by the tool (pushed onto its
+cylinder) [x tool radius]: the map of the tissue round the blade leaves them out
+(``contact.Contact.material``, ``remesh.placement``)."""
+
+MAP_WIDTH = 1.5
+"""Width of the Gaussian weights of the tissue's map round a point: the tool's radius plus
+MAP_WIDTH x s."""

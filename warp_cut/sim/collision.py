@@ -8,7 +8,7 @@ import warp as wp
 from ..kernels.collision import cylinder_contact_mask
 from .control import Tool
 
-__all__ = ["cylinder_contacts", "pushed_out"]
+__all__ = ["cylinder_contacts", "axis_distance", "pushed_out"]
 
 
 def cylinder_contacts(points, p0, p1, radius: float, device: str = "cpu") -> np.ndarray:
@@ -40,6 +40,15 @@ def cylinder_contacts(points, p0, p1, radius: float, device: str = "cpu") -> np.
     wp.launch(cylinder_contact_mask, dim=len(pts), device=device,
               inputs=[x, wp.vec3(*tool.p0), wp.vec3(*tool.p1), tool.radius, inside])
     return inside.numpy().astype(bool)
+
+
+def axis_distance(points, tool: Tool) -> np.ndarray:
+    """Distances (n,) [m] of points (n, 3) [m] from the line of the tool's axis (p0 = p1: from p0)."""
+    x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    axis = tool.p1 - tool.p0
+    rel = x - tool.p0
+    along = rel @ axis / max(float(axis @ axis), 1e-300)
+    return np.linalg.norm(rel - np.outer(along, axis), axis=1)
 
 
 def pushed_out(points, tool: Tool) -> np.ndarray:

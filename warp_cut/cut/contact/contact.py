@@ -25,8 +25,8 @@ from ...kernels.cutting import segment_node_hits
 from ...sim.control import Tool
 from ...sim.model import TissueModel
 from ..curve.incision import Incision, closest_on_polyline
-from ..tolerances import VOID_REACH
-from .material_point import MaterialPoint, affine_material_point
+from ..tolerances import MAP_WIDTH, VOID_REACH
+from .material_point import MaterialPoint, affine_material_point, held_by
 from .surface import Crossing, locate_crossing
 
 __all__ = ["BladeContact", "HitLists"]
@@ -88,23 +88,20 @@ class BladeContact:
     def material(self, sim, x: np.ndarray, crossing: Crossing, tool: Tool | None,
                  reach: float | None = None) -> MaterialPoint | None:
         """The material point the blade cuts at ``crossing``, the skin's nodes at ``x`` (n, 3)
-        [m]: the affine map of the tissue round it (the nodes within 1.5 radii of the axis,
-        which the tool pushes, left out) carried onto the rest surface
+        [m]: the affine map of the tissue round it (the nodes within ``TOOL_HOLD`` radii of the
+        axis, which the tool pushes, left out) carried onto the rest surface
         (``affine_material_point``); None over an opening (no live triangle within ``reach``
         [m], by default the tool's radius + ``VOID_REACH`` spacings) or with no tissue node
         within 2.5 spacings (plus the radius)."""
         radius = 0.0 if tool is None else tool.radius
-        scale = radius + 1.5 * self.spacing
+        scale = radius + MAP_WIDTH * self.spacing
         nodes = self.nodes_near(sim, crossing.point, crossing.point, scale + self.spacing)
         tris = np.array(self.model.index.triangles_at(nodes), dtype=np.int64)
         if len(nodes) < 3 or not len(tris):
             return None
         current = x[nodes].astype(np.float64)
         if tool is not None:
-            axis = tool.p1 - tool.p0
-            rel = current - tool.p0
-            off_axis = np.linalg.norm(rel - np.outer(rel @ axis / max(float(axis @ axis), 1e-300), axis), axis=1)
-            away = off_axis >= 1.5 * radius
+            away = ~held_by(current, tool)
             if away.sum() >= 6:
                 nodes, current = nodes[away], current[away]
         weights = np.exp(-((np.linalg.norm(current - crossing.point, axis=1) / scale) ** 2)) + 1e-12

@@ -23,8 +23,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...mesh.geometry import cross3, plane_frame
+from ...sim.collision import axis_distance
+from ...sim.control import Tool
+from ..tolerances import TOOL_HOLD
 
-__all__ = ["MaterialPoint", "closest_on_triangles", "nearest_triangle", "material_point", "affine_material_point"]
+__all__ = ["MaterialPoint", "held_by", "closest_on_triangles", "nearest_triangle", "material_point",
+           "affine_material_point"]
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,14 @@ class MaterialPoint:
     normal: np.ndarray
     triangle: int
     distance: float
+
+
+def held_by(x: np.ndarray, tool: Tool | None) -> np.ndarray:
+    """(n,) bool: the points (n, 3) [m] within ``TOOL_HOLD`` tool radii of its axis (the tool
+    pushes them, so they do not say where the tissue is); none without a tool."""
+    if tool is None or tool.radius <= 0.0:
+        return np.zeros(len(x), dtype=bool)
+    return axis_distance(x, tool) < TOOL_HOLD * tool.radius
 
 
 def closest_on_triangles(point: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -51,6 +51,7 @@ from ..tolerances import (
 from ..topology import NodePositions, TopologyEditor
 from .fill import Fill
 from .layout import Layout, Refusal, SlitDoesNotFit, corner_cut, edge_of, lay_out, matched_lips, sharp_corners
+from .placement import start_positions
 
 __all__ = ["PieceCut", "NewStation", "Refusal", "SlitDoesNotFit", "cut_piece"]
 
@@ -259,6 +260,7 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: Layout
     rest_new, current_new = lift(fill.points[new_rows])
     if tool is not None:
         current_new = pushed_out(current_new, tool)
+    current_new = _unfolded(layout, new_rows, current_new, positions, tool, inc.spacing)
     kept = {v for v in ids if v >= 0}
     gone = sorted((region.nodes() | region.deleted) - kept)
     editor.delete_nodes(gone)
@@ -277,6 +279,21 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: Layout
     cut.lips = sorted(set(cut.lips) | set(on_slit))
     _classify(editor, cut, inc.slit_nodes, {inc.start_node, inc.tip_node} - {-1})
     return cut
+
+
+def _unfolded(layout: Layout, new_rows: list, current_new: np.ndarray, positions: NodePositions,
+              tool: Tool | None, spacing: float) -> np.ndarray:
+    """The new points' current positions (m, 3) [m], those of a triangle born folded over moved
+    where the tissue round it carries them (``placement.start_positions``)."""
+    fill, ids = layout.fill, layout.ids
+    x = np.zeros((len(fill.points), 3))
+    old = [k for k, v in enumerate(ids) if v >= 0]
+    x[old] = positions[np.asarray([ids[k] for k in old], dtype=np.int64)]
+    x[new_rows] = current_new
+    new = np.zeros(len(fill.points), dtype=bool)
+    new[new_rows] = True
+    triangles = np.asarray(fill.triangles, dtype=np.int64).reshape(-1, 3)
+    return start_positions(np.asarray(fill.points, dtype=np.float64), triangles, x, new, tool, spacing)[new_rows]
 
 
 def _inserted_on_slit(layout: Layout, slit_nodes: set[int]) -> list[int]:
