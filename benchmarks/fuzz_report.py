@@ -190,6 +190,29 @@ def _breakdown(rows) -> list[str]:
     return out
 
 
+SETTLE_TOOL_BINS = (0.0, 0.5, 1.0, 1.5, float("inf"))
+"""Edges of the bins of a case's thickest tool (radius / spacing) in ``_settled_by_tool``."""
+
+
+def _settled_by_tool(rows) -> list[str]:
+    """Cases with a triangle folded over after the settle, by the case's thickest tool (radius /
+    mesh spacing): a tool thicker than the mesh is fine pushes whole triangles onto its
+    cylinder, where they are crushed or turned over, and a membrane is slow to turn them back."""
+    thickest, settled = {}, {}
+    for r in _ran(rows):
+        thickest[r["case"]] = max(thickest.get(r["case"], 0.0), r["radius_mm"] / r["spacing_mm"])
+    for r in rows:
+        if "settled_folded" in r:
+            settled[r["case"]] = r["settled_folded"] > 0
+    out = ["| thickest tool (radius / spacing) | cases | with a fold after the settle |", "|---|---|---|"]
+    for lo, hi in zip(SETTLE_TOOL_BINS, SETTLE_TOOL_BINS[1:]):
+        cases = [c for c in settled if lo <= thickest.get(c, 0.0) < hi]
+        if cases:
+            label = f"{lo:g} - {hi:g}" if np.isfinite(hi) else f">= {lo:g}"
+            out.append(f"| {label} | {len(cases)} | {sum(settled[c] for c in cases)} |")
+    return out
+
+
 def _violations(rows) -> list[str]:
     strokes, events, example = Counter(), Counter(), {}
     for r in _ran(rows):
@@ -281,6 +304,7 @@ def write_report(rows, out: Path, *, title: str, command: str, wall: float, name
     else:
         lines += ["", "## By mesh kind", ""] + _by_kind(rows)
         lines += ["", "## By stroke", ""] + _breakdown(rows)
+        lines += ["", "## Folds after the settle, by tool", ""] + _settled_by_tool(rows)
     lines += ["", "## Checks that failed", ""] + _violations(rows)
     lines += ["", "## Exceptions (grouped by message, numbers masked)", ""] + _exceptions(rows)
     lines += ["", "## Other failing strokes (reproducers)", ""]
