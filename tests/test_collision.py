@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from warp_cut import Simulator, TissueModel, Tool, ToolStartsInside, cylinder_contacts
 from warp_cut.kernels.collision import cylinder_push_out
+from warp_cut.sim.collision import axis_distance
 
 
 def oracle(points, p0, p1, r):
@@ -121,6 +122,25 @@ def test_held_contact_reaction_equals_spring_force_whatever_the_damping():
         # 0.1 m (half an ulp, 3.7e-9 m, each): a few 1e-6 relative, hence 2e-5
         np.testing.assert_allclose(sim.tool_force, [-k * stretch, 0, 0], rtol=2e-5, atol=1e-6)
         assert x1[0] == pytest.approx(0.1 - 1e-3, abs=1e-6)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_axis_distance_is_the_distance_to_the_axis_line(seed):
+    """Points built at known distances from a tilted axis (beyond its ends too: the line, not
+    the segment), and from p0 when p0 = p1."""
+    rng = np.random.default_rng(seed)
+    p0 = rng.uniform(-0.01, 0.01, 3)
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    side = np.cross(axis, rng.normal(size=3))
+    side /= np.linalg.norm(side)
+    along, gap = rng.uniform(-0.05, 0.08, 20), rng.uniform(0.0, 0.01, 20)
+    points = p0 + along[:, None] * axis + gap[:, None] * side
+    tool = Tool(p0=p0, p1=p0 + 0.03 * axis, radius=0.001)
+    np.testing.assert_allclose(axis_distance(points, tool), gap, atol=1e-12)
+    at_a_point = Tool(p0=p0, p1=p0, radius=0.001)
+    np.testing.assert_allclose(axis_distance(points, at_a_point), np.linalg.norm(points - p0, axis=1), atol=1e-12)
 
 
 def test_tool_starting_inside_is_rejected():
