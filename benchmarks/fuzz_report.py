@@ -164,8 +164,8 @@ def _by_kind(rows) -> list[str]:
 
 
 def _breakdown(rows) -> list[str]:
-    """Coverage, splits and holes by tool radius / spacing, by first vs crossing stroke, by
-    integrator: where the current cut loses the stroke."""
+    """Coverage, splits, holes and slivers by tool radius / spacing, by first vs crossing
+    stroke, by integrator: where the current cut loses the stroke."""
     ran = _ran(rows)
     groups = {
         "tool radius < 0.5 spacing": lambda r: r["radius_mm"] < 0.5 * r["spacing_mm"],
@@ -180,13 +180,14 @@ def _breakdown(rows) -> list[str]:
         groups[f"integrator {name}"] = lambda r, name=name: r["integrator"] == name
     for name in sorted({r.get("residual", "links") for r in ran}):
         groups[f"residual stress: {name}"] = lambda r, name=name: r.get("residual", "links") == name
-    out = ["| strokes | n | coverage median | covered | split | holes | no incision |", "|---|---|---|---|---|---|---|"]
+    out = [f"| strokes | n | coverage median | covered | split | holes | no incision | slivers (< {SLIVER_DEG:g} deg "
+           "as the skin lies) |", "|---|---|---|---|---|---|---|---|"]
     for label, test in groups.items():
         part = [r for r in ran if test(r)]
         if part:
             s = _stats(part)
             out.append(f"| {label} | {s['strokes']} | {_fmt(s['cov_median'])} | {s['covered']} | "
-                       f"{s['split']} | {s['holes']} | {s['none']} |")
+                       f"{s['split']} | {s['holes']} | {s['none']} | {s['slivers']} |")
     return out
 
 
