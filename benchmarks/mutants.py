@@ -147,7 +147,7 @@ def run_tests(package_parent: Path, files: tuple[str, ...], workers: int) -> tup
     failed = re.findall(r"^FAILED (\S+)", out, flags=re.MULTILINE)
     if proc.returncode == 0:
         return "survived", ""
-    if proc.returncode == 1 and failed:
+    if proc.returncode in (1, 2) and failed:  # 2: xdist's workers stopped at the first failure (-x)
         return "killed", "tests/" + failed[0].split("tests/", 1)[-1]
     lines = [line for line in out.splitlines() if line.strip()]
     return "error", lines[-1] if lines else f"pytest exit code {proc.returncode}"
