@@ -129,3 +129,23 @@ def test_the_tools_nodes_are_left_out_of_the_map_and_a_moved_point_is_kept_out_o
                                np.maximum(np.linalg.norm(direction, axis=1), tool.radius)[:, None]
                                * direction / np.linalg.norm(direction, axis=1)[:, None], atol=1e-9)
     np.testing.assert_allclose(placed[moved][:, 2], target[:, 2], atol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 10_000), count=st.integers(1, 12), push=st.floats(0.1, 2.0))
+def test_after_any_crush_no_new_triangle_is_left_folded(seed, count, push):
+    """New points thrown about in affine tissue (as a crushed dent would place them): afterwards
+    no triangle with a new corner is folded against the tissue, and the points moved are where
+    the tissue carries them."""
+    points, triangles = grid_patch(jitter=0.25, seed=seed)
+    origin, rows = affine(seed, turn=0.5)
+    tissue = origin + points @ rows
+    new = centre_new(points, count)
+    x = tissue.copy()
+    x[new] += np.random.default_rng(seed).normal(scale=push * H, size=(int(new.sum()), 3))
+    placed = start_positions(points, triangles, x, new, tool=None, spacing=H)
+    touching = triangles[new[triangles].any(axis=1)]
+    maps = tissue_map(points[~new], tissue[~new], points[touching].mean(axis=1), 1.5 * H)
+    assert not folded_against(placed, touching, maps).any()
+    moved = np.linalg.norm(placed - x, axis=1) > 0
+    np.testing.assert_allclose(placed[moved], tissue[moved], atol=1e-9)

@@ -13,7 +13,8 @@ from the chart to where the region's nodes are now, fitted to the nodes the tool
 Gaussian weights, the map the blade's crossing is carried into the rest shape with,
 ``contact.material_point``). A new triangle whose current normal points against that map's is
 folded; its new corners are placed through the map instead, and pushed out of the tool's
-cylinder as the kernels would push them. A triangle whose corners are all old nodes keeps the
+cylinder as the kernels would push them, again while a corner so moved turns a neighbour
+over (each new point at most once). A triangle whose corners are all old nodes keeps the
 shape the motion gave it.
 
 Shapes: chart points (n, 2) [m]; current positions (n, 3) [m]; triangles (t, 3) rows of those.
@@ -29,10 +30,6 @@ from ..contact.material_point import held_by
 from ..tolerances import MAP_WIDTH
 
 __all__ = ["tissue_map", "folded_against", "start_positions"]
-
-PASSES = 2
-"""How many times folded new triangles are looked for and their new corners moved."""
-
 
 def tissue_map(chart: np.ndarray, x: np.ndarray, at: np.ndarray, scale: float) -> np.ndarray | None:
     """The affine maps from the chart to the current shape round the points ``at`` (m, 2) [m],
@@ -81,15 +78,15 @@ def start_positions(chart: np.ndarray, triangles: np.ndarray, x: np.ndarray, new
     maps = tissue_map(chart[sources], x[sources], centres, scale)
     if maps is None:
         return x
-    for _ in range(PASSES):
+    placed_by_map = np.zeros(len(x), dtype=bool)
+    while True:  # a moved corner can turn a neighbour over: again, at most once per new point
         folded = folded_against(x, touching, maps)
         moved = np.unique(touching[folded].ravel())
-        moved = moved[new[moved]]
+        moved = moved[new[moved] & ~placed_by_map[moved]]
         if not len(moved):
-            break
+            return x
         placed = tissue_map(chart[sources], x[sources], chart[moved], scale)
         if placed is None:
-            break
-        placed = placed[:, 0]
-        x[moved] = placed if tool is None else pushed_out(placed, tool)
-    return x
+            return x
+        x[moved] = placed[:, 0] if tool is None else pushed_out(placed[:, 0], tool)
+        placed_by_map[moved] = True
