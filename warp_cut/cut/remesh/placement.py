@@ -31,6 +31,7 @@ from ..tolerances import MAP_WIDTH
 
 __all__ = ["tissue_map", "folded_against", "start_positions"]
 
+
 def tissue_map(chart: np.ndarray, x: np.ndarray, at: np.ndarray, scale: float) -> np.ndarray | None:
     """The affine maps from the chart to the current shape round the points ``at`` (m, 2) [m],
     each fitted to the nodes at chart points ``chart`` (k, 2) [m] now at ``x`` (k, 3) [m] with
@@ -64,8 +65,9 @@ def start_positions(chart: np.ndarray, triangles: np.ndarray, x: np.ndarray, new
     """The current positions (n, 3) [m] the fill's points start at: ``x`` (n, 3) [m] holds the
     old nodes' and the new points' through their rest triangles (pushed out of ``tool``);
     ``new`` (n,) bool marks the new points. A new point of a triangle (t, 3) that is folded
-    against the tissue round it goes where the tissue's map carries it (module docstring).
-    ``spacing``: the cut's station spacing [m]. A copy."""
+    against the tissue round it goes where the tissue's map carries it (module docstring),
+    fitted to the old nodes the tool does not hold (to all old nodes if fewer than three are
+    free of it). ``spacing``: the cut's station spacing [m]. A copy."""
     x = np.array(x, dtype=np.float64)
     old = ~new
     sources = old & ~held_by(x, tool)
