@@ -141,9 +141,15 @@ def boundary_edges(triangles) -> np.ndarray:
     directed = tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
     if not len(directed):
         return directed
-    key = edge_keys(np.sort(directed, axis=1), int(directed.max()) + 1)  # 1-D keys: a fast unique
-    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    return directed[counts[inverse.reshape(-1)] == 1]
+    key = edge_keys(np.sort(directed, axis=1), int(directed.max()) + 1)  # 1-D keys: sorted, equal ones adjoin
+    order = np.argsort(key, kind="stable")
+    same = key[order[1:]] == key[order[:-1]]
+    once = np.ones(len(key), dtype=bool)
+    once[1:] &= ~same
+    once[:-1] &= ~same
+    keep = np.empty(len(key), dtype=bool)
+    keep[order] = once
+    return directed[keep]
 
 
 def _removable(corners, border_set, on_border) -> bool:

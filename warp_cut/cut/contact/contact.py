@@ -24,7 +24,8 @@ import warp as wp
 from ...kernels.cutting import segment_node_hits
 from ...sim.control import Tool
 from ...sim.model import TissueModel
-from ..curve.incision import Incision, closest_on_polyline
+from ..curve.incision import Incision
+from ..curve.samples import closest_on_polyline
 from ..tolerances import MAP_WIDTH, VOID_REACH
 from .material_point import MaterialPoint, affine_material_point, held_by
 from .surface import Crossing, locate_crossing

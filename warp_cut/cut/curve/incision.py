@@ -25,48 +25,18 @@ from ...errors import InputError
 from ...mesh.geometry import cross3
 from ..tolerances import FIRST_STATION, STATION_GAP, STATION_TURN_DEG
 from .bezier import BezierChain, fit_chain
+from .samples import CurveSamples, closest_on_polyline
 
-__all__ = ["Incision", "polyline_distance"]
+__all__ = ["Incision", "polyline_distance", "closest_on_dense_polyline"]
 
 _SAMPLES_PER_SEGMENT = 48
 
 
-def closest_on_polyline(points: np.ndarray, poly: np.ndarray):
-    """For points (m, 3) and a polyline (k, 3): (segment index (m,), parameter on it in [0, 1]
-    (m,), closest point (m, 3) [m], distance (m,) [m]) (every segment tried: O(m k))."""
-    a, b = poly[:-1], poly[1:]
-    ab = b - a
-    denom = np.maximum((ab * ab).sum(axis=1), 1e-300)
-    t = np.clip(((points[:, None, :] - a[None]) * ab[None]).sum(axis=2) / denom[None], 0.0, 1.0)
-    closest = a[None] + t[..., None] * ab[None]
-    dist = np.linalg.norm(points[:, None, :] - closest, axis=2)
-    k = np.argmin(dist, axis=1)
-    rows = np.arange(len(points))
-    return k, t[rows, k], closest[rows, k], dist[rows, k]
-
-
 def closest_on_dense_polyline(points: np.ndarray, poly: np.ndarray):
-    """``closest_on_polyline`` for a polyline (k, 3) that densely samples a smooth curve
-    (segments much shorter than its radius of curvature): the closest point is searched on
-    the segments around each point's nearest vertex (found with one matrix product), so the
-    cost is O(m k) multiply-adds and O(m) exact segment tests."""
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if len(poly) < 2:
-        return closest_on_polyline(points, np.concatenate([poly, poly]))
-    if len(poly) < 8:
-        return closest_on_polyline(points, poly)
-    d2 = (points * points).sum(axis=1)[:, None] - 2.0 * points @ poly.T + (poly * poly).sum(axis=1)[None]
-    nearest = np.argmin(d2, axis=1)
-    segments = np.clip(nearest[:, None] + np.arange(-2, 2)[None], 0, len(poly) - 2)  # (m, 4)
-    a, b = poly[segments], poly[segments + 1]
-    ab = b - a
-    denom = np.maximum((ab * ab).sum(axis=2), 1e-300)
-    t = np.clip(((points[:, None, :] - a) * ab).sum(axis=2) / denom, 0.0, 1.0)
-    closest = a + t[..., None] * ab
-    dist = np.linalg.norm(points[:, None, :] - closest, axis=2)
-    best = np.argmin(dist, axis=1)
-    rows = np.arange(len(points))
-    return segments[rows, best], t[rows, best], closest[rows, best], dist[rows, best]
+    """``CurveSamples.closest`` of points (m, 3) on a polyline (k, 3) that densely samples a
+    smooth curve (a single point counts as a segment of no length)."""
+    poly = np.asarray(poly, dtype=np.float64)
+    return CurveSamples(np.concatenate([poly, poly]) if len(poly) < 2 else poly).closest(points)
 
 
 def _unit(v) -> np.ndarray:
@@ -119,8 +89,8 @@ class Incision:
         self.curve: BezierChain | None = None
         self._frozen = np.zeros((0, 4, 3))
         self._tail_start = 0
-        self._poly = np.repeat(self.path[0][None], 2, axis=0)
-        self._cum = np.zeros(2)
+        self._samples = CurveSamples(np.repeat(self.path[0][None], 2, axis=0))
+        """The curve sampled densely (``_SAMPLES_PER_SEGMENT`` per Bezier segment)."""
         self.station_u: list[float] = []
         """Arc length u [m] of each station, increasing."""
         self.left: list[int] = []
@@ -165,7 +135,7 @@ class Incision:
     @property
     def length(self) -> float:
         """Arc length of the curve [m]."""
-        return float(self._cum[-1])
+        return float(self._samples.cum[-1])
 
     @property
     def normal(self) -> np.ndarray:
@@ -193,8 +163,7 @@ class Incision:
         """Refit the curve to the path and sample it densely (``point_at`` interpolates those)."""
         self.curve = self._refit()
         u = np.linspace(0.0, self.curve.segment_count, _SAMPLES_PER_SEGMENT * self.curve.segment_count + 1)
-        self._poly = self.curve.evaluate(u)
-        self._cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self._poly, axis=0), axis=1))])
+        self._samples = CurveSamples(self.curve.evaluate(u))
 
     @property
     def uncut(self) -> bool:
@@ -267,9 +236,9 @@ class Incision:
         nothing."""
         if len(self.path) < 2 or self.length <= radius:
             return False
-        behind = self._cum < self.length - radius
-        rel = np.asarray(point, dtype=np.float64) - self._poly[behind]
-        n = self.normal_at(self._cum[behind])
+        behind = self._samples.cum < self.length - radius
+        rel = np.asarray(point, dtype=np.float64) - self._samples.points[behind]
+        n = self.normal_at(self._samples.cum[behind])
         # distance in the skin's tangent plane: a skin moving along its normal does not count
         lateral = rel - n * np.einsum("ij,ij->i", rel, n)[:, None]
         return bool(np.min(np.linalg.norm(lateral, axis=1)) < radius)
@@ -313,15 +282,13 @@ class Incision:
     def point_at(self, u) -> np.ndarray:
         """Curve points (m, 3) [m] at arc lengths u (m,) [m] (piecewise-linear between dense samples)."""
         u = np.clip(np.atleast_1d(np.asarray(u, dtype=np.float64)), 0.0, self.length)
-        return np.stack([np.interp(u, self._cum, self._poly[:, c]) for c in range(3)], axis=1)
+        cum, poly = self._samples.cum, self._samples.points
+        return np.stack([np.interp(u, cum, poly[:, c]) for c in range(3)], axis=1)
 
     def tangent_at(self, u) -> np.ndarray:
         """Unit tangents (m, 3) at arc lengths u [m]."""
         u = np.atleast_1d(np.asarray(u, dtype=np.float64))
-        k = np.clip(np.searchsorted(self._cum, u, side="right") - 1, 0, len(self._poly) - 2)
-        d = self._poly[k + 1] - self._poly[k]
-        n = np.linalg.norm(d, axis=1, keepdims=True)
-        return np.divide(d, n, out=np.zeros_like(d), where=n > 0)
+        return self._samples.unit[self._samples.segment_at(u)]
 
     def normal_at(self, u) -> np.ndarray:
         """Unit outward skin normals (m, 3) at arc lengths u (m,) [m], interpolated between
@@ -339,8 +306,9 @@ class Incision:
         distance (m,) [m]) of points (m, 3); the side is taken in the skin's tangent plane
         at the closest point."""
         x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        k, t, closest, dist = closest_on_dense_polyline(x, self._poly)
-        u = self._cum[k] + t * np.diff(self._cum)[k]
+        k, t, closest, dist = self._samples.closest(x)
+        cum = self._samples.cum
+        u = cum[k] + t * (cum[k + 1] - cum[k])
         lateral = np.einsum("ij,ij->i", cross3(self.tangent_at(u), x - closest), self.normal_at(u))
         return u, np.where(lateral >= 0.0, 1, -1), dist
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..classes import NodeClass
-from ..curve.incision import Incision, closest_on_polyline, polyline_distance
+from ..curve.incision import Incision, polyline_distance
+from ..curve.samples import closest_on_polyline
 
 __all__ = ["incision_width", "gap_profile", "lip_deviation", "coverage", "path_coverage"]
 
