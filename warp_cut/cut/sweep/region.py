@@ -67,8 +67,11 @@ def border_nodes(model, nodes: np.ndarray) -> np.ndarray:
     triangle): every triangle at such an edge holds the node, so the triangles at ``nodes``
     decide it."""
     nodes = np.asarray(nodes, dtype=np.int64)
-    edges = border_edges(model, model.index.triangles_at(nodes.tolist()))
-    return member(nodes, edges)
+    tris = model.index.triangles_at(nodes.tolist())
+    if not tris:
+        return np.zeros(len(nodes), dtype=bool)
+    # an edge at one of ``nodes`` has all its triangles among ``tris``: once among them is once in the mesh
+    return member(nodes, boundary_edges(model.triangle_table.column("corners")[tris]))
 
 
 class Region:
