@@ -111,8 +111,12 @@ MUTANTS = (
     Mutant("sharp_corners_kept", "cut/remesh/layout.py",
            (("if v in protected or corner_angle(chart, turn) >= REFINE_ANGLE_DEG:", "if True:"),),
            "sharp corners of the new outline are neither taken in nor cut off"),
-    Mutant("islands_not_searched", "cut/cutter.py",
-           (("scraps, islands = self.freed.after_edit(keep)", "scraps, islands = 0, 0"),),
+    Mutant("flaps_kept", "cut/wound/islands.py",
+           (("        flaps = self.remove_flaps(near, keep)\n", "        flaps = 0\n"),),
+           "pieces of tissue an edit leaves hanging by one edge stay, and fold over"),
+    Mutant("islands_not_searched", "cut/wound/islands.py",
+           (("        islands = islands_from(editor.model, editor.report.new_triangles)\n",
+             "        islands = []\n"),),
            "pieces of skin an edit cuts free are left floating in the wound"),
 )
 

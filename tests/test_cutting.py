@@ -871,19 +871,9 @@ def end_allowance(sim, stroke) -> float:
     return EXIT_ADVANCE * sim.cutter.spacing + stroke.radius
 
 
-def opened_fraction(sim, surface, cut: CutStroke, upto: float) -> float:
-    """Fraction of ``cut``'s trace (the tool's path on the rest surface) from its start to arc
-    length ``upto`` [m] that the cut has opened, computed here from the triangles: a trace point
-    is open when edges of the wound (border edges of the live mesh that were not border edges
-    when the stroke began) pass within 0.5 spacing + 0.25 tool radius (a lip pair straddles the
-    curve at 0.25 r) of it on its left and on its right, in the surface's parameter plane, at
-    rest. Trace points over no triangle when the stroke began (an earlier wound) are left out."""
-    stroke, model = cut.stroke, sim.model
-    s = np.arange(0.0, upto, surface.spacing / 20.0) + surface.spacing / 40.0
-    s = s[s < upto]
-    uv = np.column_stack([np.interp(s, stroke.arclength, stroke.path.uv[:, c]) for c in range(2)])
-    ahead = np.column_stack([np.interp(s + 1e-5, stroke.arclength, stroke.path.uv[:, c]) for c in range(2)]) - uv
-    corners = surface.uv_of(model.points[cut.triangles_before]).reshape(-1, 3, 2)
+def over_triangles(uv: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Mask (m,) of the parameter points ``uv`` (m, 2) inside one of the triangles with parameter
+    corners ``corners`` (t, 3, 2), either winding."""
     a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
 
     def turn(p, q, r):  # (m, t): z of (q - p) x (r - p) for the sample points r
@@ -891,18 +881,42 @@ def opened_fraction(sim, surface, cut: CutStroke, upto: float) -> float:
         return pq[..., 0] * (r[:, None, 1] - p[None, :, 1]) - pq[..., 1] * (r[:, None, 0] - p[None, :, 0])
 
     z = np.stack([turn(a, b, uv), turn(b, c, uv), turn(c, a, uv)])
-    over_skin = ((z >= 0).all(axis=0) | (z <= 0).all(axis=0)).any(axis=1)
+    return ((z >= 0).all(axis=0) | (z <= 0).all(axis=0)).any(axis=1)
+
+
+def opened_fraction(sim, surface, cut: CutStroke, upto: float) -> float:
+    """Fraction of ``cut``'s trace (the tool's path on the rest surface) from its start to arc
+    length ``upto`` [m] that the cut has opened, computed here from the triangles: a trace point
+    is open when, on its left and on its right, edges of the wound (border edges of the live mesh
+    that were not border edges when the stroke began) pass within ``tol`` = 0.5 spacing + 0.25
+    tool radius (a lip pair straddles the curve at 0.25 r) of it, or the opening it lies in
+    reaches past that (it and the point ``tol`` to that side are over no live triangle: the
+    tissue between the slit and an earlier wound went, a flap the cut left); in the surface's
+    parameter plane, at rest. Trace points over no triangle when the stroke began (an earlier
+    wound) are left out."""
+    stroke, model = cut.stroke, sim.model
+    s = np.arange(0.0, upto, surface.spacing / 20.0) + surface.spacing / 40.0
+    s = s[s < upto]
+    uv = np.column_stack([np.interp(s, stroke.arclength, stroke.path.uv[:, c]) for c in range(2)])
+    ahead = np.column_stack([np.interp(s + 1e-5, stroke.arclength, stroke.path.uv[:, c]) for c in range(2)]) - uv
+    before = surface.uv_of(model.points[cut.triangles_before]).reshape(-1, 3, 2)
+    now = surface.uv_of(model.points[model.triangles]).reshape(-1, 3, 2)
+    over_skin = over_triangles(uv, before)
     old = {tuple(e) for e in border_edges(cut.triangles_before).tolist()}
     wound = np.array([e for e in border_edges(model.triangles).tolist() if tuple(e) not in old]).reshape(-1, 2)
     if not len(wound) or not over_skin.any():
         return 0.0
+    tol = 0.5 * surface.spacing + 0.25 * stroke.radius
     p, q = surface.uv_of(model.points[wound[:, 0]]), surface.uv_of(model.points[wound[:, 1]])
     pq = q - p
     t = np.clip(((uv[:, None] - p[None]) * pq[None]).sum(axis=2) / (pq * pq).sum(axis=1)[None], 0.0, 1.0)
     rel = p[None] + t[..., None] * pq[None] - uv[:, None]
-    near = np.linalg.norm(rel, axis=2) <= 0.5 * surface.spacing + 0.25 * stroke.radius
+    near = np.linalg.norm(rel, axis=2) <= tol
     side = ahead[:, None, 0] * rel[..., 1] - ahead[:, None, 1] * rel[..., 0]
-    opened = (near & (side > 0)).any(axis=1) & (near & (side < 0)).any(axis=1)
+    left = tol * np.column_stack([-ahead[:, 1], ahead[:, 0]]) / np.linalg.norm(ahead, axis=1)[:, None]
+    in_opening = ~over_triangles(uv, now)
+    gone = [in_opening & ~over_triangles(uv + k * left, now) for k in (1.0, -1.0)]
+    opened = ((near & (side > 0)).any(axis=1) | gone[0]) & ((near & (side < 0)).any(axis=1) | gone[1])
     return float(opened[over_skin].mean())
 
 

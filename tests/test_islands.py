@@ -2,15 +2,17 @@
 
 Compared against: the connected pieces of hand-built meshes (a sheet with separate small
 pieces beside it, a piece held by a single node, a pinned piece, two pieces of equal size),
-found here with a union-find over triangles sharing a node.
+found here with a union-find over triangles sharing a node; and the flaps a cut leaves hanging
+by one edge (triangles hung on the border of a sheet, checked against the nodes they share with it).
 """
 
 import numpy as np
 import pytest
 
 from warp_cut import TissueModel
+from warp_cut.cut.classes import NodeClass
 from warp_cut.cut.topology import TopologyEditor
-from warp_cut.cut.wound.islands import FreedPieces, islands_from, scraps_from
+from warp_cut.cut.wound.islands import Freed, FreedPieces, flaps_from, islands_from, scraps_from
 
 
 def grid(n: int, origin=(0.0, 0.0), cell: float = 1e-3):
@@ -216,6 +218,138 @@ def test_freed_pieces_remove_the_islands_an_edit_cut_free(keep_islands, removed)
     editor.begin()
     editor.delete_triangles(remade)
     editor.add_triangles(corners, model.points)
-    assert freed.after_edit(keep=set()) == (0, removed)
+    assert freed.after_edit(keep=set()) == Freed(0, 0, removed)
     editor.finish()
     assert model.triangle_count == len(parts[0]) + (0 if removed else 8)
+
+
+N = 6  # the flap tests' sheet: N x N nodes, 1 mm cells
+RIGHT = [r * N + N - 1 for r in range(N)]  # the sheet's right border nodes, bottom to top
+
+
+def sheet_with_hung(points, triangles, touched=True, **kwargs):
+    """The N x N sheet with ``points`` (k, 3) [mm] added (numbered from N^2) and ``triangles``
+    (rows of node numbers, the sheet's or the added ones) hung on it; the added nodes are of the
+    cut's classes (``touched``) or NORMAL. Returns (model, the hung triangles' slots)."""
+    sheet_points, tri = grid(N)
+    model = TissueModel.from_triangles(np.concatenate([sheet_points, 1e-3 * np.asarray(points, float)]),
+                                       np.concatenate([tri, triangles]), **{"pinned": "none", **kwargs})
+    if touched:
+        model.node_class[N * N:] = NodeClass.LIP
+    return model, list(range(len(tri), len(tri) + len(triangles)))
+
+
+def only_in(model, piece: set[int], nodes) -> bool:
+    """True if every node of ``nodes`` lies in triangles of ``piece`` only (what holds a flap)."""
+    corners = model.triangle_table.column("corners")
+    outside = [t for t in range(model.triangle_table.count) if model.triangle_table.alive[t] and t not in piece]
+    return not set(nodes) & set(corners[outside].ravel().tolist())
+
+
+FLAP = ([[N, 2.5, 0.0]], [[RIGHT[2], N * N, RIGHT[3]]])  # a triangle on the border edge RIGHT[2]-RIGHT[3]
+SQUARE = ([[N, 2.0, 0.0], [N, 3.0, 0.0]], [[RIGHT[2], N * N, N * N + 1], [RIGHT[2], N * N + 1, RIGHT[3]]])
+
+
+def test_a_triangle_hung_on_one_border_edge_is_a_flap_from_either_side():
+    """A triangle hung on the sheet's border edge: a flap held by that edge, seeded from itself or
+    from the sheet's triangle on the edge; its third node lies in it only."""
+    model, mine = sheet_with_hung(*FLAP)
+    sheet_side = (model.index.triangles_with_edge(RIGHT[2], RIGHT[3]) - set(mine)).pop()
+    for seeds in (mine, [sheet_side]):
+        assert flaps_from(model, seeds, 1.5 * MM2, 8) == [(set(mine), (RIGHT[2], RIGHT[3]))]
+    assert only_in(model, set(mine), [N * N])
+
+
+def test_a_square_hung_on_one_edge_is_one_flap_and_its_outer_triangle_another():
+    """A 1 mm^2 square of two triangles hung on the sheet's border edge: seen from the sheet, one
+    flap of both; seen from its outer triangle alone, that triangle hangs on the square's diagonal
+    (a flap on its own, its outer node in it only)."""
+    model, mine = sheet_with_hung(*SQUARE)
+    sheet_side = (model.index.triangles_with_edge(RIGHT[2], RIGHT[3]) - set(mine)).pop()
+    assert flaps_from(model, [sheet_side], 1.5 * MM2, 8) == [(set(mine), (RIGHT[2], RIGHT[3]))]
+    assert flaps_from(model, mine[:1], 1.5 * MM2, 8) == [({mine[0]}, (RIGHT[2], N * N + 1))]
+    assert only_in(model, set(mine), [N * N, N * N + 1]) and only_in(model, {mine[0]}, [N * N])
+
+
+def test_a_piece_over_the_area_or_the_triangle_count_is_no_flap():
+    """The hung triangle (0.5 mm^2) is no flap below 0.4 mm^2; the square seen from the sheet is
+    none when one triangle is searched."""
+    model, mine = sheet_with_hung(*FLAP)
+    assert flaps_from(model, mine, 0.4 * MM2, 8) == []
+    model, mine = sheet_with_hung(*SQUARE)
+    sheet_side = (model.index.triangles_with_edge(RIGHT[2], RIGHT[3]) - set(mine)).pop()
+    assert flaps_from(model, [sheet_side], 1.5 * MM2, 1) == []
+
+
+def test_a_piece_held_by_two_edges_or_at_a_node_is_no_flap():
+    """A triangle hung on one border edge whose third node a second triangle joins to the sheet
+    further up (a bow-tie) is held by more than the edge, and so is a ribbon hung at both ends."""
+    bow = ([[N, 3.0, 0.0]], [[RIGHT[1], N * N, RIGHT[2]], [RIGHT[4], RIGHT[5], N * N]])
+    ribbon = ([[N, 1.5, 0.0], [N, 3.5, 0.0]],
+              [[RIGHT[1], N * N, RIGHT[2]], [RIGHT[2], N * N, N * N + 1], [N * N + 1, RIGHT[4], RIGHT[3]],
+               [RIGHT[2], N * N + 1, RIGHT[3]]])
+    for points, tri in (bow, ribbon):
+        model, mine = sheet_with_hung(points, tri)
+        assert not only_in(model, {mine[0]}, range(N * N, model.node_count))
+        assert flaps_from(model, mine, 10 * MM2, 8) == []
+
+
+def test_a_pinned_or_kept_or_untouched_piece_is_no_flap():
+    """The hung triangle is held when its node is pinned, waits while it is a node the next event
+    closes onto (``keep``), and is the mesh as it was given when the cut touched none of its nodes."""
+    pinned = np.zeros(N * N + 1, dtype=bool)
+    pinned[N * N] = True
+    model, mine = sheet_with_hung(*FLAP, pinned=pinned)
+    assert flaps_from(model, mine, 1.5 * MM2, 8) == []
+    model, mine = sheet_with_hung(*FLAP)
+    assert flaps_from(model, mine, 1.5 * MM2, 8, keep={N * N}) == []
+    model, mine = sheet_with_hung(*FLAP, touched=False)
+    assert flaps_from(model, mine, 1.5 * MM2, 8) == []
+
+
+def test_freed_pieces_remove_a_flap_and_the_flaps_it_leaves():
+    """A triangle hung on the outer edge of the hung square, seeded alone: a flap on that edge;
+    once it is gone the square's outer triangle hangs on the diagonal, then the inner one on the
+    sheet's edge: all three go, with their three nodes, and the sheet stays whole."""
+    points = SQUARE[0] + [[N + 1, 2.5, 0.0]]
+    tri = SQUARE[1] + [[N * N, N * N + 2, N * N + 1]]
+    model, mine = sheet_with_hung(points, tri)
+    editor = TopologyEditor(model)
+    freed = FreedPieces(editor, 0.0, 0, keep_islands=False, flap_area=2.0 * MM2, flap_triangles=8)
+    editor.begin()
+    assert freed.remove_flaps({mine[2]}, keep=set()) == 3
+    editor.finish()
+    assert not model.active[N * N:].any()
+    assert model.active.sum() == N * N and model.triangle_count == 2 * (N - 1) ** 2
+
+
+def test_an_edit_that_leaves_a_flap_removes_it():
+    """The hung triangle made again in an edit (as a cut's fill makes it): ``after_edit`` removes
+    it as a flap, one triangle, and nothing else; with ``keep`` holding its node it stays."""
+    for keep, flaps in ((set(), 1), ({N * N}, 0)):
+        model, mine = sheet_with_hung(*FLAP)
+        editor = TopologyEditor(model)
+        freed = FreedPieces(editor, 0.0, 0, keep_islands=False, flap_area=1.5 * MM2, flap_triangles=8)
+        corners = model.triangle_table.column("corners")[mine].copy()
+        editor.begin()
+        editor.delete_triangles(mine)
+        editor.add_triangles(corners, model.points)
+        assert freed.after_edit(keep=keep) == Freed(0, flaps, 0)
+        editor.finish()
+        assert model.triangle_count == 2 * (N - 1) ** 2 + 1 - flaps
+
+
+def test_a_flap_holding_a_node_of_the_slit_being_cut_waits_for_the_incisions_end():
+    """The hung triangle made again in an edit while its node is a node of the incision's slit:
+    it stays (the next events re-mesh round that slit); at the incision's end it goes."""
+    model, mine = sheet_with_hung(*FLAP)
+    editor = TopologyEditor(model)
+    freed = FreedPieces(editor, 0.0, 0, keep_islands=False, flap_area=1.5 * MM2, flap_triangles=8)
+    corners = model.triangle_table.column("corners")[mine].copy()
+    editor.begin()
+    editor.delete_triangles(mine)
+    editor.add_triangles(corners, model.points)
+    assert freed.after_edit(keep=set(), slit={N * N}) == Freed(0, 0, 0)
+    assert freed.at_incision_end() == Freed(0, 1, 0)
+    editor.finish()
+    assert not model.active[N * N] and model.triangle_count == 2 * (N - 1) ** 2

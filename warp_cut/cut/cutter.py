@@ -53,9 +53,9 @@ from .settings import CutSettings
 from .sweep.piece import Piece, goes_back, piece_to_cut, without_necks
 from .sweep.tissue_at_rest import joined_start, rest_point_on_tissue
 from .tally import CutTally
-from .tolerances import EXIT_ADVANCE, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
+from .tolerances import EXIT_ADVANCE, FLAP_AREA, FLAP_TRIANGLES, MIN_ADVANCE, SCRAP_AREA, SCRAP_TRIANGLES
 from .topology import NodePositions, TopologyEditor
-from .wound.islands import FreedPieces
+from .wound.islands import Freed, FreedPieces
 from .wound.links import OriginalSprings, carry_links, link_crossed_springs, settle_pending_links
 from .wound.measures import gap_profile, incision_width, lip_deviation, path_coverage
 
@@ -111,7 +111,8 @@ class Cutter:
         """The tally's counts (metrics.json's ``cut``), refusals by reason, and stage times [ms]."""
         self.new_triangles: set[int] = set()
         """Live triangles the cut made (slots)."""
-        self.freed = FreedPieces(self.editor, SCRAP_AREA * self.spacing**2, SCRAP_TRIANGLES, self.settings.keep_islands)
+        self.freed = FreedPieces(self.editor, SCRAP_AREA * self.spacing**2, SCRAP_TRIANGLES, self.settings.keep_islands,
+                                 FLAP_AREA * self.spacing**2, FLAP_TRIANGLES)
         """Removes the scraps and islands an edit leaves (a scrap holding the newest lip pair of
         the incision being cut waits: its next event closes onto it)."""
         self._loops_before = border_loop_count(model.triangles)
@@ -251,10 +252,11 @@ class Cutter:
                 break
         self.editor.begin()
         settle_pending_links(self.editor, inc, reach=np.inf)
-        scraps = self.freed.remove_scraps(set(), keep=set())  # no event closes onto them now
-        self.totals["removed_scraps"] += scraps
+        freed = self.freed.at_incision_end()  # no event closes onto them now
+        self._count_freed(freed)
         flips = self._settle_prestressed(sim)
-        if not (self.editor.report.residual_links or flips or scraps or self.editor.policy.prestressed):
+        if not (self.editor.report.residual_links or flips or freed.scraps or freed.flaps
+                or self.editor.policy.prestressed):
             return
         self.totals["delaunay_flips"] += flips
         positions = NodePositions(self._positions_view(sim))
@@ -436,7 +438,7 @@ class Cutter:
         split = editor.split_pinched_nodes(editor.touched_nodes, positions)
         cut.inserted += split
         cut.met_border |= bool(split)  # a node split apart may be all that held a piece
-        self._free_islands(cut, set() if final else self._newest_lips(inc))
+        self._free_islands(set() if final else self._newest_lips(inc), set() if final else inc.slit_nodes)
         report = editor.finish(positions=positions)
         takers = cut.lips + cut.inserted + list(editor.touched_nodes)
         self.totals["lost_links"] += carry_links(editor, inc, report, takers, reach=2.0 * self.spacing)
@@ -447,12 +449,17 @@ class Cutter:
         if self.originals is not None:
             link_crossed_springs(self.editor, inc, self.originals, piece, self._linked)
 
-    def _free_islands(self, cut: PieceCut, keep: set[int]) -> None:
-        """Remove the scraps this event trimmed off (but those holding a node of ``keep``) and
+    def _free_islands(self, keep: set[int], slit: set[int]) -> None:
+        """Remove the scraps this event trimmed off (but those holding a node of ``keep``), the
+        flaps it left (but those holding a node of ``slit``, the incision's, till its end) and
         the pieces of skin it cut free (unless the settings keep them)."""
-        scraps, islands = self.freed.after_edit(keep)
-        self.totals["removed_scraps"] += scraps
-        self.totals["removed_islands"] += islands
+        self._count_freed(self.freed.after_edit(keep, slit))
+
+    def _count_freed(self, freed: Freed) -> None:
+        """Add what ``FreedPieces`` removed to the totals."""
+        self.totals["removed_scraps"] += freed.scraps
+        self.totals["removed_flaps"] += freed.flaps
+        self.totals["removed_islands"] += freed.islands
 
     def _newest_lips(self, inc: Incision) -> set[int]:
         """The two lip nodes of ``inc``'s newest lip pair (none if it has none)."""

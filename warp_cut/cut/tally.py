@@ -22,8 +22,8 @@ curve the event cuts; Stages 1 and 3's re-mesh (region, band, fill, writing it);
 links, split nodes, islands and the edit's finish; the edit mirrored on the device."""
 
 TOTALS = ("deleted_nodes", "deleted_springs", "residual_links", "carried_links", "lost_links", "lip_nodes",
-          "inserted_nodes", "new_springs", "removed_fragments", "removed_islands", "removed_scraps", "region_growths",
-          "unrefined_triangles", "delaunay_flips", "events", "skipped_events")
+          "inserted_nodes", "new_springs", "removed_fragments", "removed_islands", "removed_scraps", "removed_flaps",
+          "region_growths", "unrefined_triangles", "delaunay_flips", "events", "skipped_events")
 """The counts of ``CutTally.totals`` (metrics.json's ``cut``)."""
 
 

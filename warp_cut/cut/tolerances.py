@@ -122,6 +122,17 @@ the cut trimmed off, not a piece of skin (``islands.scraps_from``)."""
 SCRAP_TRIANGLES = 6
 """A piece is searched as a scrap up to this many triangles (a larger one is not a scrap)."""
 
+FLAP_AREA = 0.5
+"""A piece of tissue held to the rest by one edge only is a flap, removed within the edit that
+leaves it, with the flaps its removal leaves in turn while their rest area in all stays below this
+[x s^2] (``islands.flaps_from``, ``FreedPieces.remove_flaps``): a membrane's springs resist no turn
+about that edge, and the foundation, acting on the small area of its nodes against their damping,
+turns it back over minutes, not the fraction of a second the skin takes to settle. Without the
+bound a long thin wedge between a zigzag's legs went whole."""
+
+FLAP_TRIANGLES = 32
+"""A flap, and such a chain of them, holds at most this many triangles."""
+
 NECK_REACH = 4.0
 """Longest run of curve [x the edge clearance, lip offset + ``CLEARANCE`` s] over the tissue but
 nowhere clear of its borders, between two openings, that the blade cuts through as a neck

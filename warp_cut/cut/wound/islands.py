@@ -1,5 +1,6 @@
-"""Pieces of skin a cut frees: an excision's island, found after the edit that closes it, and
-the scraps an edit trims off; ``FreedPieces`` removes them within the edit.
+"""Pieces of skin a cut frees: an excision's island, found after the edit that closes it, the
+scraps an edit trims off and the flaps it leaves hanging by one edge; ``FreedPieces`` removes
+them within the edit.
 
 When a slit runs into an opening (an earlier wound, the tissue's edge), the piece of tissue it
 bounds may come free. The triangles joined through shared edges to those the edit made are
@@ -13,11 +14,15 @@ Triangles are slots of the model's triangle table.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ...mesh.geometry import corner_areas
+from ..classes import NodeClass
+from ..sweep.region import border_nodes
 
-__all__ = ["FreedPieces", "islands_from", "scraps_from", "piece_nodes"]
+__all__ = ["Freed", "FreedPieces", "islands_from", "scraps_from", "flaps_from", "piece_nodes"]
 
 
 def _neighbours(model, t: int) -> set[int]:
@@ -115,41 +120,139 @@ def scraps_from(model, seeds, max_area: float, max_triangles: int) -> list[set[i
     return scraps
 
 
+def flaps_from(model, seeds, max_area: float, max_triangles: int, keep=frozenset()) -> list[tuple[set[int], tuple]]:
+    """The pieces of tissue held to the rest by one edge only, near the live triangles ``seeds``:
+    for each edge of theirs between two border nodes with a live triangle on either side (a
+    chord between openings), the triangles joined to one side through nodes other than its two
+    ends, if they close within ``max_triangles`` triangles and ``max_area`` [m^2] of rest area
+    without reaching the other side and hold no pinned node and no node of ``keep``. A membrane's
+    springs resist no turn about that edge, so such a flap folds over and stays folded. Only a
+    flap the cut left counts (``_cut_touched``). Each as (its triangle slots, the edge's two
+    nodes)."""
+    index, corners, alive = model.index, model.triangle_table.column("corners"), model.triangle_table.alive
+    seeds = [int(t) for t in seeds if alive[int(t)]]
+    if not seeds:
+        return []
+    nodes = np.unique(corners[seeds])
+    border = set(nodes[border_nodes(model, nodes)].tolist())
+    chords = {(min(a, b), max(a, b)) for t in seeds for a, b in _edges(corners[t].tolist())
+              if a in border and b in border}
+    flaps, taken = [], set()
+    for a, b in sorted(chords):
+        sides = index.triangles_with_edge(a, b)
+        if len(sides) != 2 or sides & taken:
+            continue
+        for side in sorted(sides):
+            piece = _held_by(model, side, (a, b), max_triangles, sides - {side})
+            if piece is not None and _rest_area(model, piece) < max_area and _cut_touched(model, piece) \
+                    and not _holds(model, piece, (a, b), keep):
+                flaps.append((piece, (a, b)))
+                taken |= piece
+                break
+    return flaps
+
+
+def _edges(c: list[int]) -> tuple:
+    """The three edges of a triangle's corners ``c``."""
+    return (c[0], c[1]), (c[1], c[2]), (c[2], c[0])
+
+
+def _held_by(model, start: int, hinge: tuple, max_triangles: int, other: set[int]) -> set[int] | None:
+    """The triangles joined to triangle ``start`` through nodes other than the ``hinge``'s two,
+    or None if they reach a triangle of ``other`` or number more than ``max_triangles``."""
+    index, corners = model.index, model.triangle_table.column("corners")
+    piece, front = {start}, [start]
+    while front:
+        front = [n for t in front for v in corners[t].tolist() if v not in hinge
+                 for n in index.node_triangles[v] if n not in piece]
+        piece.update(front)
+        if len(piece) > max_triangles or piece & other:
+            return None
+    return piece
+
+
+def _cut_touched(model, piece: set[int]) -> bool:
+    """True if a corner of the triangle slots ``piece`` is a node the cut made or re-meshed round
+    (its class not ``NORMAL``): the cut left the flap, not the mesh as it was given (the corner
+    triangle of a patch may hang by one edge too)."""
+    return bool((model.node_class[_corners(model, piece)] != NodeClass.NORMAL).any())
+
+
+def _holds(model, piece: set[int], hinge: tuple, keep) -> bool:
+    """True if the triangle slots ``piece`` hold a pinned node or a node of ``keep`` (but the
+    ``hinge``'s two, which stay)."""
+    nodes = [v for v in piece_nodes(model, piece).tolist() if v not in hinge]
+    return bool(model.pinned[nodes].any()) or bool(set(nodes) & set(keep))
+
+
 def _rest_area(model, triangles: set[int]) -> float:
     """Rest area [m^2] of the triangle slots ``triangles``."""
     return float(corner_areas(model.points[_corners(model, triangles)]).sum())
 
 
+@dataclass(frozen=True)
+class Freed:
+    """What one edit's ``FreedPieces.after_edit`` removed."""
+
+    scraps: int
+    """Scraps (pieces apart from the tissue)."""
+    flaps: int
+    """Triangles of the flaps (pieces held by one edge)."""
+    islands: int
+    """Islands (pieces a slit cut free)."""
+
+
 class FreedPieces:
     """Removes, within an edit of ``editor`` (a ``TopologyEditor``), what the edit left apart
     from the tissue: its scraps (``scraps_from``: rest area below ``scrap_area`` [m^2], at most
-    ``scrap_triangles`` triangles), whatever the settings say, and the islands a slit meeting
-    an opening cut free (``islands_from``), unless ``keep_islands``. A scrap holding a node of
-    ``keep`` (the incision's newest lip pair, which its next event closes onto) waits for a
-    later edit."""
+    ``scrap_triangles`` triangles), whatever the settings say, the flaps it left hanging by one
+    edge (``flaps_from``: a chain of them under ``flap_area`` [m^2] and ``flap_triangles``), and
+    the islands a slit meeting an opening cut free (``islands_from``), unless ``keep_islands``.
+    A scrap holding a node of ``keep`` (the incision's newest lip pair, which its next event
+    closes onto) waits for a later edit; a flap holding a node of the incision's slit, for its
+    end."""
 
-    def __init__(self, editor, scrap_area: float, scrap_triangles: int, keep_islands: bool):
+    def __init__(self, editor, scrap_area: float, scrap_triangles: int, keep_islands: bool,
+                 flap_area: float = 0.0, flap_triangles: int = 0):
         self.editor = editor
         self.scrap_area, self.scrap_triangles = float(scrap_area), int(scrap_triangles)
+        self.flap_area, self.flap_triangles = float(flap_area), int(flap_triangles)
         self.keep_islands = bool(keep_islands)
         self.waiting: set[int] = set()
         """Triangles (slots) of the scraps that wait."""
+        self.flaps_near: set[int] = set()
+        """Triangles (slots) round the edits of the incision being cut, searched for flaps again
+        at its end (a flap holding a node of its slit waits till then)."""
 
-    def after_edit(self, keep: set[int]) -> tuple[int, int]:
-        """Remove the scraps near what the edit made or touched (and the waiting ones), and the
-        islands it cut free. Every edit is searched, not only one whose slit met an opening by a
-        new point: a slit whose lips were matched to nodes of an earlier wound's border frees its
-        island just the same (an arc across a zigzag wound left a free piece of 24 triangles).
-        Returns (scraps, islands) removed."""
+    def after_edit(self, keep: set[int], slit: set[int] = frozenset()) -> Freed:
+        """Remove the scraps near what the edit made or touched (and the waiting ones), the flaps
+        it left (``remove_flaps``) and the islands it cut free. Every edit is searched, not only
+        one whose slit met an opening by a new point: a slit whose lips were matched to nodes of
+        an earlier wound's border frees its island just the same (an arc across a zigzag wound
+        left a free piece of 24 triangles). A flap holding a node of ``slit`` (the incision being
+        cut, whose next events re-mesh round it) waits for the incision's end: an edit with no
+        ``slit`` searches round every edit since (``flaps_near``)."""
         editor = self.editor
         near = set(editor.report.new_triangles).union(*(editor.node_triangles[v] for v in editor.touched_nodes))
         scraps = self.remove_scraps(near, keep)
+        self.flaps_near |= near
+        flaps = self.remove_flaps(near if slit else self.flaps_near, keep | slit)
+        if not slit:
+            self.flaps_near = set()
         if self.keep_islands:
-            return scraps, 0
+            return Freed(scraps, flaps, 0)
         islands = islands_from(editor.model, editor.report.new_triangles)
         for island in islands:
             self._remove(island)
-        return scraps, len(islands)
+        return Freed(scraps, flaps, len(islands))
+
+    def at_incision_end(self) -> Freed:
+        """Remove what waited for the incision's end: the waiting scraps and the flaps round
+        its edits (nothing closes onto them now)."""
+        scraps = self.remove_scraps(set(), keep=set())
+        flaps = self.remove_flaps(self.flaps_near, keep=set())
+        self.flaps_near = set()
+        return Freed(scraps, flaps, 0)
 
     def remove_scraps(self, seeds: set[int], keep: set[int]) -> int:
         """Remove the scraps the triangle slots ``seeds`` or the waiting ones belong to; one
@@ -163,6 +266,33 @@ class FreedPieces:
             self._remove(scrap)
             removed += 1
         return removed
+
+    def remove_flaps(self, seeds: set[int], keep: set[int]) -> int:
+        """Remove the flaps near the triangle slots ``seeds`` (``flaps_from``; the nodes of a
+        flap go but its edge's two), each with the flaps its removal leaves (the triangle on the
+        other side of that edge may now hang by one edge: the two were one flap hung by the
+        next edge), as long as such a chain stays within the flap area and triangle count.
+        Returns the flap triangles removed."""
+        model, removed = self.editor.model, 0
+        for piece, hinge in flaps_from(model, seeds, self.flap_area, self.flap_triangles, keep):
+            if model.triangle_table.alive[sorted(piece)].all():  # not taken by a chain before it
+                removed += self._remove_chain(piece, hinge, keep)
+        return removed
+
+    def _remove_chain(self, piece: set[int], hinge: tuple, keep: set[int]) -> int:
+        """Remove the flap ``piece`` hung on ``hinge`` and then the flap its removal leaves, in
+        turn, while their rest area and triangles in all stay within the limits. Returns the
+        triangles removed."""
+        editor, area, count = self.editor, 0.0, 0
+        while True:
+            area += _rest_area(editor.model, piece)
+            count += len(piece)
+            editor.delete_nodes([v for v in piece_nodes(editor.model, piece).tolist() if v not in hinge])
+            seeds = set().union(*(editor.node_triangles[v] for v in hinge if editor.model.active[v]))
+            more = flaps_from(editor.model, seeds, self.flap_area - area, self.flap_triangles - count, keep)
+            if not more:
+                return count
+            piece, hinge = more[0]
 
     def _remove(self, triangles: set[int]) -> None:
         """Delete the nodes (and so the springs and triangles) of the triangle slots ``triangles``."""
