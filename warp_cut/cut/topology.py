@@ -539,24 +539,29 @@ class TopologyEditor:
 
 
 def _fans(v: int, triangles, corners: np.ndarray) -> list[set[int]]:
-    """The triangles at node ``v`` (slots) grouped into fans: pieces joined through an edge at v."""
-    fans: list[set[int]] = []
-    others = {int(t): [x for x in corners[int(t)].tolist() if x != v] for t in triangles}
-    by_other: dict[int, list[int]] = {}
-    for t, xs in others.items():
-        for x in xs:
-            by_other.setdefault(x, []).append(t)
-    seen: set[int] = set()
-    for t in triangles:
-        if t in seen:
-            continue
-        fan, todo = set(), [int(t)]
-        while todo:
-            u = todo.pop()
-            if u in fan:
+    """The triangles at node ``v`` (slots) grouped into fans: pieces joined through an edge at v
+    (two triangles at v share an edge there when they share their other node of it)."""
+    tris = [int(t) for t in triangles]
+    if len(tris) < 2:
+        return [set(tris)]
+    parent = {t: t for t in tris}
+
+    def root(t: int) -> int:
+        while parent[t] != t:
+            parent[t] = parent[parent[t]]
+            t = parent[t]
+        return t
+
+    first_at: dict[int, int] = {}
+    for t, row in zip(tris, corners[tris].tolist()):
+        for x in row:
+            if x == v:
                 continue
-            fan.add(u)
-            todo += [w for x in others[u] for w in by_other[x]]
-        seen |= fan
-        fans.append(fan)
-    return fans
+            if x in first_at:
+                parent[root(t)] = root(first_at[x])
+            else:
+                first_at[x] = t
+    fans: dict[int, set[int]] = {}
+    for t in tris:
+        fans.setdefault(root(t), set()).add(t)
+    return list(fans.values())

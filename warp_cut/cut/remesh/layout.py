@@ -40,6 +40,8 @@ class Refusal(enum.Enum):
     NO_FILL = "the region cannot be filled"
     SPLITS_OUTLINE = "the refinement splits the region's outline however far it grows"
     UNDER_ANGLE = "the fill leaves a triangle under the smallest angle however far it grows"
+    UNDER_ANGLE_AT_REST = "the fill, lifted from its chart onto the curved rest surface, leaves a triangle under the " \
+        "smallest angle"
     SLIT_NOT_LAID = "the fill does not lay every point of the slit once"
 
 
@@ -196,8 +198,8 @@ def _inside(pieces: list, nodes: list[int], model, chart: RegionChart, clear: fl
     within = np.zeros(len(nodes), dtype=bool)
     for piece in pieces:
         within |= shapely.contains_xy(piece, xy[:, 0], xy[:, 1])
-    rim = shapely.union_all([p.boundary for p in pieces])
-    away = shapely.distance(rim, shapely.points(xy)) > clear
+    points = shapely.points(xy)
+    away = np.all([shapely.distance(piece.boundary, points) > clear for piece in pieces], axis=0)
     return [v for v, keep in zip(nodes, within & away) if keep]
 
 
