@@ -172,3 +172,28 @@ def test_a_fill_that_does_not_lay_each_lip_once_is_refused(monkeypatch):
     assert fill()[1] == 0
     _, fill = fill_with(monkeypatch, [layout_of(GOOD, ids=(-1, -2, 7), points=points, band_lips={(0, -1): 7})], band_)
     assert fill()[1] == 0
+
+
+def rest_layout(ids, count: int) -> SimpleNamespace:
+    """What ``_check_rest_angles`` reads of a layout: its vertex ids (nodes >= 0) and a fill of
+    ``count`` chart points (their chart positions do not matter: the check is at rest) with one
+    triangle (0, 1, 2)."""
+    return SimpleNamespace(ids=list(ids), fill=SimpleNamespace(points=np.zeros((count, 2)), triangles=[[0, 1, 2]]))
+
+
+@pytest.mark.parametrize("apex_deg, refused", [(MIN_ANGLE_DEG + 1.0, False), (MIN_ANGLE_DEG - 1.0, True)])
+def test_a_fill_under_the_smallest_angle_at_rest_is_refused_whatever_its_chart(apex_deg, refused):
+    """An isosceles rest triangle (two nodes and a new point lifted onto the rest surface) with
+    its apex 1 deg either side of ``MIN_ANGLE_DEG`` (the base angles, (180 - apex) / 2, are
+    about 80 deg: the apex is the smallest): refused (``Refusal.UNDER_ANGLE_AT_REST``) exactly
+    when it is under, whatever the chart says."""
+    half = np.radians(apex_deg / 2.0)
+    model = model_with([[-S * np.sin(half), 0.0, 0.0], [S * np.sin(half), 0.0, 0.0]])
+    apex = np.array([[0.0, S * np.cos(half), 0.0]])
+    layout = rest_layout([0, 1], 3)
+    if refused:
+        with pytest.raises(SlitDoesNotFit) as why:
+            cut_piece._check_rest_angles(model, layout, [2], apex)
+        assert why.value.reason is Refusal.UNDER_ANGLE_AT_REST
+    else:
+        cut_piece._check_rest_angles(model, layout, [2], apex)

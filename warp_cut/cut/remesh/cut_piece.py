@@ -31,6 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...mesh.geometry import triangle_min_angles
 from ...sim.collision import pushed_out
 from ...sim.control import Tool
 from ..chart import PiecewiseLinearMap, RegionChart, chart_min_angles
@@ -258,6 +259,7 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: Layout
                               positions[corners.reshape(-1)].reshape(-1, 3, 3))
     new_rows = [k for k, v in enumerate(ids) if v < 0] + list(range(len(ids), len(fill.points)))
     rest_new, current_new = lift(fill.points[new_rows])
+    _check_rest_angles(model, layout, new_rows, rest_new)
     if tool is not None:
         current_new = pushed_out(current_new, tool)
     current_new = _unfolded(layout, new_rows, current_new, positions, tool, inc.spacing)
@@ -279,6 +281,25 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: Layout
     cut.lips = sorted(set(cut.lips) | set(on_slit))
     _classify(editor, cut, inc.slit_nodes, {inc.start_node, inc.tip_node} - {-1})
     return cut
+
+
+def _check_rest_angles(model, layout: Layout, new_rows: list, rest_new: np.ndarray) -> None:
+    """The fill's triangles at rest (its nodes' rest positions, its new points lifted onto the
+    rest surface, ``rest_new`` (m, 3) [m]) keep ``MIN_ANGLE_DEG``: the chart is a projection,
+    exact where the rest shape is flat; a region grown large on a tightly curved surface (a
+    cylinder of 13 mm radius) made a 22 deg chart triangle 15 deg at rest.
+
+    Raises:
+        SlitDoesNotFit: One is under it (nothing is written: the next event tries again).
+    """
+    fill, ids = layout.fill, layout.ids
+    rest = np.zeros((len(fill.points), 3))
+    old = [k for k, v in enumerate(ids) if v >= 0]
+    rest[old] = model.points[np.asarray([ids[k] for k in old], dtype=np.int64)]
+    rest[new_rows] = rest_new
+    triangles = np.asarray(fill.triangles, dtype=np.int64).reshape(-1, 3)
+    if len(triangles) and triangle_min_angles(rest, triangles).min() < MIN_ANGLE_DEG:
+        raise SlitDoesNotFit(Refusal.UNDER_ANGLE_AT_REST)
 
 
 def _unfolded(layout: Layout, new_rows: list, current_new: np.ndarray, positions: NodePositions,
