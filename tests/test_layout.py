@@ -12,7 +12,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.remesh.layout import Turn, _corners, _loops, corner_cut, sharp_corners
+from warp_cut.cut.remesh.layout import NewPoint, Turn, _corners, _loops, _merge_crossings, corner_cut, sharp_corners
 from warp_cut.cut.sweep.slit_band import TIP, BandPoint
 from warp_cut.cut.tolerances import CORNER_CUT, REFINE_ANGLE_DEG
 
@@ -137,3 +137,21 @@ def test_corners_under_the_refinement_angle_are_the_sharp_ones_to_mend():
     for turn, wedge in found[:2]:
         assert np.array_equal(wedge, layout.fill.points[[turn.before, turn.row, turn.after]])
     assert found[2][1] is None
+
+
+def crossing(x: float, y: float) -> NewPoint:
+    """A new point where a lip line crosses a border (no band point), at chart (x, y) [m]."""
+    return NewPoint(None, np.array([x, y]))
+
+
+def test_two_crossings_nearer_than_merge_are_one_and_band_points_and_nodes_stay():
+    """A loop of nodes 0, 1 and new points -1..-4: two crossings 0.05 S apart (-1, -2), a crossing
+    0.05 S from a lip of the band (-3 next to -4), and the lip. Within a merge of 0.1 S the loop
+    keeps one of the two crossings and the lip (a band point is never dropped, nor a node); with
+    a merge of 0.01 S nothing goes; a loop never drops under three vertices."""
+    lip = NewPoint(BandPoint(np.array([S, 2 * S, 0.0]), 1, 0, 0.0), np.array([S, 2 * S]))
+    points = [crossing(S, 0.0), crossing(1.05 * S, 0.0), crossing(S, 1.95 * S), lip]
+    loop = [0, -1, -2, 1, -3, -4]
+    assert _merge_crossings(loop, points, 0.1 * S) == [0, -2, 1, -4]
+    assert _merge_crossings(loop, points, 0.01 * S) == loop
+    assert _merge_crossings([-1, -2, 0], points, 0.1 * S) == [-1, -2, 0]

@@ -90,6 +90,11 @@ MERGE = 0.1
 """A new point of the slit's outline (a lip, where a lip line meets a border) within this [x s]
 of a node next to it on the outline is left out: the outline goes straight on to the node."""
 
+CROSSING_MERGE = 0.2
+"""A point where a lip line meets a border within this [x s] of the new point next to it on the
+outline is left out (``layout._merge_crossings``): a lip line over the corner of an earlier
+wound's border crossed it twice a hundredth of a spacing apart, and made a triangle that small."""
+
 LIP_MATCH = 0.3
 """A new lip within this [x s] of an earlier lip of its own side is that lip (node matching
 round a bend, ``cut_piece._match_bend_lips``): on the inside of a sharp bend the lip lines of the

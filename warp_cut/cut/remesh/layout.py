@@ -24,7 +24,7 @@ from ..chart import RegionChart
 from ..curve.incision import Incision
 from ..sweep.region import Region
 from ..sweep.slit_band import BandPoint, SlitBand
-from ..tolerances import COARSEN, CORNER_CUT, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
+from ..tolerances import COARSEN, CORNER_CUT, CROSSING_MERGE, MATCH, MERGE, MIN_EDGE, REFINE_ANGLE_DEG
 from .fill import Fill, fill_region
 
 __all__ = ["Layout", "NewPoint", "Refusal", "SlitDoesNotFit", "Turn", "lay_out", "matched_lips", "sharp_corners",
@@ -144,6 +144,7 @@ def lay_out(model, inc: Incision, region: Region, band: SlitBand, chart: RegionC
         raise SlitDoesNotFit(Refusal.NOTHING_LEFT)
     table = _VertexTable(model, chart, region, band, MATCH * inc.spacing)
     loops, points, matched = _loops(pieces, table, MERGE * inc.spacing)
+    loops = [_merge_crossings(loop, points, CROSSING_MERGE * inc.spacing) for loop in loops]
     outline = {v for loop in loops for v in loop}
     inside = _inside(pieces, sorted(region.nodes() - region.deleted - outline), model, chart, MERGE * inc.spacing)
     ids = sorted(v for v in outline if v >= 0) + inside + sorted((v for v in outline if v < 0), reverse=True)
@@ -297,6 +298,24 @@ def _merge_near(ids: list[int], coords: np.ndarray, merge: float, matched: dict)
                 continue
         keep.append(v)
     return keep
+
+
+def _merge_crossings(loop: list[int], points: list[NewPoint], merge: float) -> list[int]:
+    """``loop`` without the points where a lip line crosses a border (new points that are no band
+    point) lying within ``merge`` [m] of the next new point on the loop: two crossings that near
+    (a lip line over the corner of an earlier wound's border) made an edge of a hundredth of a
+    spacing, and a triangle that small, which any motion crushes."""
+    out = list(loop)
+    k = 0
+    while len(out) > 3 and k < len(out):
+        v = out[k]
+        if v < 0 and points[-1 - v].band is None and any(
+                w < 0 and np.linalg.norm(points[-1 - v].chart - points[-1 - w].chart) < merge
+                for w in (out[k - 1], out[(k + 1) % len(out)])):
+            del out[k]
+            continue
+        k += 1
+    return out
 
 
 def corner_angle(chart: np.ndarray, turn: tuple) -> float:
