@@ -12,7 +12,17 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warp_cut.cut.remesh.layout import NewPoint, Turn, _corners, _loops, _merge_crossings, corner_cut, sharp_corners
+from warp_cut.cut.chart import RegionChart
+from warp_cut.cut.remesh.layout import (
+    NewPoint,
+    Turn,
+    _corners,
+    _inside,
+    _loops,
+    _merge_crossings,
+    corner_cut,
+    sharp_corners,
+)
 from warp_cut.cut.sweep.slit_band import TIP, BandPoint
 from warp_cut.cut.tolerances import CORNER_CUT, REFINE_ANGLE_DEG
 
@@ -155,3 +165,17 @@ def test_two_crossings_nearer_than_merge_are_one_and_band_points_and_nodes_stay(
     assert _merge_crossings(loop, points, 0.1 * S) == [0, -2, 1, -4]
     assert _merge_crossings(loop, points, 0.01 * S) == loop
     assert _merge_crossings([-1, -2, 0], points, 0.1 * S) == [-1, -2, 0]
+
+
+def test_the_fill_keeps_inner_nodes_clear_of_every_pieces_outline():
+    """Two square pieces of tissue, 4 S and 2 S a side, apart; nodes inside each, one well in and
+    one nearer its outline than ``clear``, and one between them: the fill keeps as inner points
+    only the nodes inside a piece and farther than ``clear`` from every piece's outline (a node a
+    hair from the outline would make a thin triangle with it)."""
+    chart = RegionChart(np.zeros(3), [0.0, 0.0, 1.0])
+    squares = [[(0, 0), (4, 0), (4, 4), (0, 4)], [(6, 0), (8, 0), (8, 2), (6, 2)]]
+    pieces = [shapely.Polygon(chart.to2d([(S * x, S * y, 0.0) for x, y in square])) for square in squares]
+    xy = [(2 * S, 2 * S), (3.95 * S, 2 * S), (7 * S, 1 * S), (6.05 * S, 1 * S), (5 * S, 1 * S)]
+    model = SimpleNamespace(points=np.array([(x, y, 0.0) for x, y in xy]))
+    assert _inside(pieces, [0, 1, 2, 3, 4], model, chart, 0.1 * S) == [0, 2]
+    assert _inside(pieces, [0, 1, 2, 3, 4], model, chart, 0.01 * S) == [0, 1, 2, 3]
