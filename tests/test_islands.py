@@ -323,17 +323,24 @@ def test_freed_pieces_remove_a_flap_and_the_flaps_it_leaves():
     assert model.active.sum() == N * N and model.triangle_count == 2 * (N - 1) ** 2
 
 
+def flap_made_again():
+    """The sheet with the hung triangle, in an edit begun that made the triangle again (as a
+    cut's fill makes it): (model, editor, its ``FreedPieces`` with flaps under 1.5 mm^2)."""
+    model, mine = sheet_with_hung(*FLAP)
+    editor = TopologyEditor(model)
+    freed = FreedPieces(editor, 0.0, 0, keep_islands=False, flap_area=1.5 * MM2, flap_triangles=8)
+    corners = model.triangle_table.column("corners")[mine].copy()
+    editor.begin()
+    editor.delete_triangles(mine)
+    editor.add_triangles(corners, model.points)
+    return model, editor, freed
+
+
 def test_an_edit_that_leaves_a_flap_removes_it():
     """The hung triangle made again in an edit (as a cut's fill makes it): ``after_edit`` removes
     it as a flap, one triangle, and nothing else; with ``keep`` holding its node it stays."""
     for keep, flaps in ((set(), 1), ({N * N}, 0)):
-        model, mine = sheet_with_hung(*FLAP)
-        editor = TopologyEditor(model)
-        freed = FreedPieces(editor, 0.0, 0, keep_islands=False, flap_area=1.5 * MM2, flap_triangles=8)
-        corners = model.triangle_table.column("corners")[mine].copy()
-        editor.begin()
-        editor.delete_triangles(mine)
-        editor.add_triangles(corners, model.points)
+        model, editor, freed = flap_made_again()
         assert freed.after_edit(keep=keep) == Freed(0, flaps, 0)
         editor.finish()
         assert model.triangle_count == 2 * (N - 1) ** 2 + 1 - flaps
@@ -342,13 +349,7 @@ def test_an_edit_that_leaves_a_flap_removes_it():
 def test_a_flap_holding_a_node_of_the_slit_being_cut_waits_for_the_incisions_end():
     """The hung triangle made again in an edit while its node is a node of the incision's slit:
     it stays (the next events re-mesh round that slit); at the incision's end it goes."""
-    model, mine = sheet_with_hung(*FLAP)
-    editor = TopologyEditor(model)
-    freed = FreedPieces(editor, 0.0, 0, keep_islands=False, flap_area=1.5 * MM2, flap_triangles=8)
-    corners = model.triangle_table.column("corners")[mine].copy()
-    editor.begin()
-    editor.delete_triangles(mine)
-    editor.add_triangles(corners, model.points)
+    model, editor, freed = flap_made_again()
     assert freed.after_edit(keep=set(), slit={N * N}) == Freed(0, 0, 0)
     assert freed.at_incision_end() == Freed(0, 1, 0)
     editor.finish()
