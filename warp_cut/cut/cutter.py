@@ -113,8 +113,9 @@ class Cutter:
         """Live triangles the cut made (slots)."""
         self.freed = FreedPieces(self.editor, SCRAP_AREA * self.spacing**2, SCRAP_TRIANGLES, self.settings.keep_islands,
                                  FLAP_AREA * self.spacing**2, FLAP_TRIANGLES)
-        """Removes the scraps and islands an edit leaves (a scrap holding the newest lip pair of
-        the incision being cut waits: its next event closes onto it)."""
+        """Removes the scraps, flaps and islands an edit leaves (a scrap holding the newest lip
+        pair of the incision being cut waits: its next event closes onto it; a flap holding a
+        node of its slit waits for its end)."""
         self._loops_before = border_loop_count(model.triangles)
         for module in (cut_kernels, scatter):  # compiled now, so no cut event pays for it
             wp.load_module(module, device=device)
