@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh.geometry import corner_areas
+from ..mesh.triangulate import connected_groups
 from ..sim.bending import mass_caps
 from ..sim.material_policy import material_policy
 from ..sim.model_change import ModelChange
@@ -542,26 +543,10 @@ def _fans(v: int, triangles, corners: np.ndarray) -> list[set[int]]:
     """The triangles at node ``v`` (slots) grouped into fans: pieces joined through an edge at v
     (two triangles at v share an edge there when they share their other node of it)."""
     tris = [int(t) for t in triangles]
-    if len(tris) < 2:
-        return [set(tris)]
-    parent = {t: t for t in tris}
-
-    def root(t: int) -> int:
-        while parent[t] != t:
-            parent[t] = parent[parent[t]]
-            t = parent[t]
-        return t
-
     first_at: dict[int, int] = {}
+    links = []
     for t, row in zip(tris, corners[tris].tolist()):
         for x in row:
-            if x == v:
-                continue
-            if x in first_at:
-                parent[root(t)] = root(first_at[x])
-            else:
-                first_at[x] = t
-    fans: dict[int, set[int]] = {}
-    for t in tris:
-        fans.setdefault(root(t), set()).add(t)
-    return list(fans.values())
+            if x != v:
+                links.append((t, first_at.setdefault(x, t)))
+    return [set(fan) for fan in connected_groups(tris, links)]

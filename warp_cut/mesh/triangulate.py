@@ -16,7 +16,7 @@ from ..errors import InputError
 from .geometry import edge_keys, triangle_min_angles
 
 __all__ = ["zip_rows", "lattice", "jitter_lattice", "disk_points", "delaunay", "trim_border_slivers",
-           "boundary_edges", "border_loops", "border_loop_count", "topology_problems"]
+           "boundary_edges", "connected_groups", "border_loops", "border_loop_count", "topology_problems"]
 
 
 def zip_rows(lower, upper, lower_u, upper_u) -> list[tuple[int, int, int]]:
@@ -187,9 +187,10 @@ def trim_border_slivers(points, triangles, min_angle_deg: float = 15.0):
     return kept, remap[tri]
 
 
-def border_loops(border: np.ndarray) -> int:
-    """Connected pieces of the border edges (each a loop when no node is pinched)."""
-    parent = {int(v): int(v) for v in border.ravel()}
+def connected_groups(items, links) -> list[list[int]]:
+    """The groups of ``items`` (ints) that the pairs ``links`` (of items) join, by a union-find:
+    each a list in the order of ``items``, the groups in the order of their first item."""
+    parent = {int(v): int(v) for v in items}
 
     def root(v):
         while parent[v] != v:
@@ -197,9 +198,17 @@ def border_loops(border: np.ndarray) -> int:
             v = parent[v]
         return v
 
-    for a, b in border:
+    for a, b in links:
         parent[root(int(a))] = root(int(b))
-    return len({root(v) for v in parent})
+    groups: dict[int, list[int]] = {}
+    for v in parent:
+        groups.setdefault(root(v), []).append(v)
+    return list(groups.values())
+
+
+def border_loops(border: np.ndarray) -> int:
+    """Connected pieces of the border edges (each a loop when no node is pinched)."""
+    return len(connected_groups(border.ravel().tolist(), border.tolist()))
 
 
 def border_loop_count(triangles) -> int:
