@@ -27,16 +27,9 @@ from ..tolerances import FIRST_STATION, STATION_GAP, STATION_TURN_DEG
 from .bezier import BezierChain, fit_chain
 from .samples import CurveSamples, closest_on_polyline
 
-__all__ = ["Incision", "polyline_distance", "closest_on_dense_polyline"]
+__all__ = ["Incision", "polyline_distance"]
 
 _SAMPLES_PER_SEGMENT = 48
-
-
-def closest_on_dense_polyline(points: np.ndarray, poly: np.ndarray):
-    """``CurveSamples.closest`` of points (m, 3) on a polyline (k, 3) that densely samples a
-    smooth curve (a single point counts as a segment of no length)."""
-    poly = np.asarray(poly, dtype=np.float64)
-    return CurveSamples(np.concatenate([poly, poly]) if len(poly) < 2 else poly).closest(points)
 
 
 def _unit(v) -> np.ndarray:
@@ -54,7 +47,7 @@ def _max_distance(points: np.ndarray, curve: BezierChain) -> float:
     (within ~1e-4 of the chord length of the true distance)."""
     s = curve.segment_count
     dense = curve.evaluate(np.linspace(0.0, s, 64 * s + 1))
-    return float(closest_on_dense_polyline(points, dense)[3].max())
+    return float(CurveSamples(dense).closest(points)[3].max())
 
 
 class Incision:

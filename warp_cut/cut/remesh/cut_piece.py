@@ -272,7 +272,7 @@ def _apply(editor: TopologyEditor, inc: Incision, region: Region, layout: Layout
     for row, node, x in zip(new_rows, made, current_new):
         node_of[row] = int(node)
         positions[int(node)] = x
-    editor.add_triangles(np.asarray(node_of, dtype=np.int64)[np.asarray(fill.triangles, dtype=np.int64).reshape(-1, 3)],
+    editor.add_triangles(np.asarray(node_of, dtype=np.int64)[_fill_triangles(layout)],
                          model.points)
     cut = _record(inc, layout, node_of, gone)
     cut.growth, cut.unrefined = growth, fill.unrefined
@@ -292,12 +292,8 @@ def _check_rest_angles(model, layout: Layout, new_rows: list, rest_new: np.ndarr
     Raises:
         SlitDoesNotFit: One is under it (nothing is written: the next event tries again).
     """
-    fill, ids = layout.fill, layout.ids
-    rest = np.zeros((len(fill.points), 3))
-    old = [k for k, v in enumerate(ids) if v >= 0]
-    rest[old] = model.points[np.asarray([ids[k] for k in old], dtype=np.int64)]
-    rest[new_rows] = rest_new
-    triangles = np.asarray(fill.triangles, dtype=np.int64).reshape(-1, 3)
+    rest = _at_fill_points(layout, model.points, new_rows, rest_new)
+    triangles = _fill_triangles(layout)
     if len(triangles) and triangle_min_angles(rest, triangles).min() < MIN_ANGLE_DEG:
         raise SlitDoesNotFit(Refusal.UNDER_ANGLE_AT_REST)
 
@@ -306,15 +302,27 @@ def _unfolded(layout: Layout, new_rows: list, current_new: np.ndarray, positions
               tool: Tool | None, spacing: float) -> np.ndarray:
     """The new points' current positions (m, 3) [m], those of a triangle born folded over moved
     where the tissue round it carries them (``placement.start_positions``)."""
-    fill, ids = layout.fill, layout.ids
-    x = np.zeros((len(fill.points), 3))
-    old = [k for k, v in enumerate(ids) if v >= 0]
-    x[old] = positions[np.asarray([ids[k] for k in old], dtype=np.int64)]
-    x[new_rows] = current_new
-    new = np.zeros(len(fill.points), dtype=bool)
+    x = _at_fill_points(layout, positions, new_rows, current_new)
+    new = np.zeros(len(layout.fill.points), dtype=bool)
     new[new_rows] = True
-    triangles = np.asarray(fill.triangles, dtype=np.int64).reshape(-1, 3)
-    return start_positions(np.asarray(fill.points, dtype=np.float64), triangles, x, new, tool, spacing)[new_rows]
+    chart = np.asarray(layout.fill.points, dtype=np.float64)
+    return start_positions(chart, _fill_triangles(layout), x, new, tool, spacing)[new_rows]
+
+
+def _at_fill_points(layout: Layout, by_node, new_rows: list, at_new: np.ndarray) -> np.ndarray:
+    """Positions (n, 3) [m] of the fill's n points: a node's from ``by_node`` (indexable by node
+    arrays: rest or current positions), the new points' (rows ``new_rows``) ``at_new``."""
+    ids = layout.ids
+    out = np.zeros((len(layout.fill.points), 3))
+    old = [k for k, v in enumerate(ids) if v >= 0]
+    out[old] = by_node[np.asarray([ids[k] for k in old], dtype=np.int64)]
+    out[new_rows] = at_new
+    return out
+
+
+def _fill_triangles(layout: Layout) -> np.ndarray:
+    """The fill's triangles (t, 3), rows of its points."""
+    return np.asarray(layout.fill.triangles, dtype=np.int64).reshape(-1, 3)
 
 
 def _inserted_on_slit(layout: Layout, slit_nodes: set[int]) -> list[int]:
