@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...mesh.geometry import corner_areas
+from ...mesh.geometry import corner_areas, half_edges
+from ...sim.slots import member
 from ..classes import NodeClass
 from ..sweep.region import border_nodes
 
@@ -134,9 +135,8 @@ def flaps_from(model, seeds, max_area: float, max_triangles: int, keep=frozenset
     if not seeds:
         return []
     nodes = np.unique(corners[seeds])
-    border = set(nodes[border_nodes(model, nodes)].tolist())
-    chords = {(min(a, b), max(a, b)) for t in seeds for a, b in _edges(corners[t].tolist())
-              if a in border and b in border}
+    edges = np.sort(half_edges(corners[seeds]), axis=1)
+    chords = {(a, b) for a, b in edges[member(edges, nodes[border_nodes(model, nodes)]).all(axis=1)].tolist()}
     flaps, taken = [], set()
     for a, b in sorted(chords):
         sides = index.triangles_with_edge(a, b)
@@ -150,11 +150,6 @@ def flaps_from(model, seeds, max_area: float, max_triangles: int, keep=frozenset
                 taken |= piece
                 break
     return flaps
-
-
-def _edges(c: list[int]) -> tuple:
-    """The three edges of a triangle's corners ``c``."""
-    return (c[0], c[1]), (c[1], c[2]), (c[2], c[0])
 
 
 def _held_by(model, start: int, hinge: tuple, max_triangles: int, other: set[int]) -> set[int] | None:
@@ -236,9 +231,7 @@ class FreedPieces:
         near = set(editor.report.new_triangles).union(*(editor.node_triangles[v] for v in editor.touched_nodes))
         scraps = self.remove_scraps(near, keep)
         self.flaps_near |= near
-        flaps = self.remove_flaps(near if slit else self.flaps_near, keep | slit)
-        if not slit:
-            self.flaps_near = set()
+        flaps = self.remove_flaps(near, keep | slit) if slit else self._remove_flaps_near(keep)
         if self.keep_islands:
             return Freed(scraps, flaps, 0)
         islands = islands_from(editor.model, editor.report.new_triangles)
@@ -250,9 +243,14 @@ class FreedPieces:
         """Remove what waited for the incision's end: the waiting scraps and the flaps round
         its edits (nothing closes onto them now)."""
         scraps = self.remove_scraps(set(), keep=set())
-        flaps = self.remove_flaps(self.flaps_near, keep=set())
+        return Freed(scraps, self._remove_flaps_near(keep=set()), 0)
+
+    def _remove_flaps_near(self, keep: set[int]) -> int:
+        """Remove the flaps round every edit of the incision since its last search
+        (``flaps_near``), which starts over. Returns the flap triangles removed."""
+        flaps = self.remove_flaps(self.flaps_near, keep)
         self.flaps_near = set()
-        return Freed(scraps, flaps, 0)
+        return flaps
 
     def remove_scraps(self, seeds: set[int], keep: set[int]) -> int:
         """Remove the scraps the triangle slots ``seeds`` or the waiting ones belong to; one
