@@ -117,7 +117,7 @@ MUTANTS = (
              "    if False:"),),
            "a fill lifted onto a curved rest surface may leave triangles under the smallest angle"),
     Mutant("flaps_kept", "cut/wound/islands.py",
-           (("        flaps = self.remove_flaps(near if slit else self.flaps_near, keep | slit)\n",
+           (("        flaps = self.remove_flaps(near, keep | slit) if slit else self._remove_flaps_near(keep)\n",
              "        flaps = 0\n"),),
            "pieces of tissue an edit leaves hanging by one edge stay, and fold over"),
     Mutant("islands_not_searched", "cut/wound/islands.py",
