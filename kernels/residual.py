@@ -76,6 +76,7 @@ def link_constraints(
     node_mass: wp.array(dtype=wp.float32),
     node_flags: wp.array(dtype=wp.int32),
     valence: wp.array(dtype=wp.float32),
+    stiffness_sum: wp.array(dtype=wp.float32),
     inv_h2: float,
     delta: wp.array(dtype=wp.vec3),
 ):
@@ -83,9 +84,18 @@ def link_constraints(
 
     A link of magnitude F [N] and smoothing eps [m] pulls with ``F d / r``, r = sqrt(|d|^2 +
     eps^2): a zero-length spring of the secant stiffness F / r at the predicted positions.
-    As a compliant constraint (compliance r / F): ``dx_i = w_i d / (n_i w_i + n_j w_j + r /
-    (F h^2))``, which is the explicit ``h^2 F d / (r m_i)`` while F h^2 w << r and never moves
-    the pair past each other however light the nodes (at most closing the gap).
+    As a compliant constraint (compliance r / F), one Jacobi pass gives
+    ``dx_i = w_i a d / T``, a = F h^2 / r, with ``T = 1 + a (n_i w_i + n_j w_j)``: the explicit
+    ``h^2 F d / (r m_i)`` while F h^2 w << r, and never past each other however light the nodes
+    (at most closing the gap).
+
+    T is at least ``1 + h^2 (K_i w_i + K_j w_j)`` (K: the node's spring stiffness sum
+    ``stiffness_sum`` [N/m]): one Jacobi pass softens a spring k by ``1 + k h^2 (n_i w_i +
+    n_j w_j)``, and the link is softened as much as the springs that hold its nodes, so their
+    fixed point balances the link's force as the springs' equilibrium does. Without the
+    bound, on nodes light against h^2 K (small triangles a cut made) a link much softer than
+    the springs (F / r << k) was softened far less than they were and pulled its pair most of
+    the way together, crushing their triangles.
     """
     k = wp.tid()
     i = link_indices[2 * k]
@@ -100,6 +110,8 @@ def link_constraints(
     d = positions[j] - positions[i]
     eps = link_smoothing[k]
     r = wp.sqrt(wp.dot(d, d) + eps * eps)
-    g = d / (valence[i] * wi + valence[j] * wj + r * inv_h2 / force)
+    a = force / (r * inv_h2)
+    springs = 1.0 + (stiffness_sum[i] * wi + stiffness_sum[j] * wj) / inv_h2
+    g = d * (a / wp.max(1.0 + a * (valence[i] * wi + valence[j] * wj), springs))
     wp.atomic_add(delta, i, g * wi)
     wp.atomic_sub(delta, j, g * wj)

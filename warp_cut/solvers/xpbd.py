@@ -96,7 +96,7 @@ class XPBDSolver(SolverBase):
         if self._links_act():
             seq.add(link_constraints, m.link_count,
                     [state_out.positions, m.link_indices, m.link_force, m.link_smoothing,
-                     m.node_mass, m.node_flags, self._valence, inv_h2, self._delta])
+                     m.node_mass, m.node_flags, self._valence, self._stiffness_sum, inv_h2, self._delta])
         seq.add(K.finish_kernel(self.collision), nt,
                 [x_in, m.node_mass, m.node_damping, m.node_flags, self._stiffness_sum,
                  self.tool_pose, h, chunk, n,
