@@ -1487,6 +1487,29 @@ def test_a_stroke_starting_beside_a_wound_and_crossing_it_at_a_shallow_angle_ope
     assert sim.cutter.skipped == {}
 
 
+@pytest.mark.parametrize("angle_deg, radius_mm", [(25.0, 1.5), (35.0, 1.5)])
+def test_a_stroke_crossing_a_wound_near_its_end_at_a_shallow_angle_opens_the_run_past_it(
+        angle_deg, radius_mm):
+    """A second 12 mm stroke (60 degrees, 2 cm/s) whose trace crosses a first wound 25 or 35
+    degrees off its line, 3 or 2 mm before its end. Past the wound its curve runs within the
+    edge clearance of the wound's border for about a spacing: no sample there is clear of it,
+    and at ``BESIDE_RUN`` = 1 spacing no run was long enough for its strip to be cut off, so
+    that run stayed uncut (0.78 and 0.86 covered). At half a spacing the strip goes, the blade's
+    tip beside it cuts as it goes (``piece._tip_beside``), and the stroke opens >= 0.95 of its
+    path with no cut event refused."""
+    surface = flat_grid(0.05, 0.002)
+    sim = supported_sim(surface, 1.0 / 60.0)
+    one_valid_incision(sim, surface, strokes.line([-0.012, 0.0], 0.0, 0.024), 60.0, 0.001, 0.002, 0.02, 0.04)
+    a, length, past = math.radians(angle_deg), 0.012, {25.0: 0.003, 35.0: 0.002}[angle_deg]
+    start = -(length - past) * np.array([math.cos(a), math.sin(a)])
+    result = one_valid_incision(sim, surface, strokes.line(start.tolist(), a, length), 60.0, 1e-3 * radius_mm,
+                                0.002, 0.02, 0.04)
+    assert result.coverage >= 0.95
+    assert sim.cutter.skipped == {}
+    assert result.slivers == 0 and result.unfilled_holes == 0
+    assert_sound_rest_shape(sim.model, sim.cutter.live_new_triangles())
+
+
 @pytest.mark.parametrize("offset_mm, turn_deg", [(0.4, 0.0), (0.8, 4.0)])
 def test_a_stroke_beside_an_earlier_wound_cuts_off_the_strip_between_them(offset_mm, turn_deg):
     """A second 16 mm stroke (r 1 mm, 60 degrees) drawn beside a first one, 0.4 mm off its line,

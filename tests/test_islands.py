@@ -149,6 +149,18 @@ def test_the_search_stops_at_the_limit_and_costs_the_small_pieces_not_the_sheet(
     assert islands_from(model, [parts[0][800], parts[1][0]], limit=1) == []
 
 
+def test_a_piece_found_whole_before_the_limit_is_an_island_though_the_tissue_is_not_found():
+    """Seeds at two far corners of a 30 x 30 node sheet, as on the two sides of a long wound,
+    and in a 2-triangle piece: the piece is done at once, but the sheet's two seeds grow past
+    the default limit (half the live triangles) before they meet. The piece is found all the
+    same (before, the search stopped with no island, and an arc across a zigzag wound left a
+    piece of 9 triangles floating in it: ``test_cutting``'s arc across a zigzag wound)."""
+    model, parts = sheet_with_pieces([2], n=30)
+    seeds = [parts[0][0], parts[0][-1], parts[1][0]]
+    assert islands_from(model, seeds) == [set(parts[1])]
+    assert islands_from(model, seeds[:2]) == []
+
+
 MM2 = 1e-6  # one square of the grids here [m^2]
 
 

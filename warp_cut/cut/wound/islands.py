@@ -36,8 +36,11 @@ def _neighbours(model, t: int) -> set[int]:
 def islands_from(model, seeds, limit: int | None = None) -> list[set[int]]:
     """The pieces of the mesh reachable from the triangles ``seeds`` that came apart from the
     rest: every connected piece but the one that is still growing when all the others are done
-    (the tissue), each as its set of triangle slots. ``limit``: stop (no island) once the
-    pieces searched hold this many triangles (default: half the live triangles)."""
+    (the tissue), each as its set of triangle slots. ``limit``: stop once the pieces searched
+    hold this many triangles (default: half the live triangles); the pieces found whole by then,
+    each under ``limit`` (so not the tissue, which holds more), are islands all the same. Seeds
+    on both sides of a long wound grow round it before they meet, and that search once hit the
+    limit and forgot a piece of 9 triangles it had found, left floating in the wound."""
     alive = model.triangle_table.alive
     seeds = [int(t) for t in seeds if alive[int(t)]]
     limit = limit or max(1, model.triangle_count // 2)
@@ -65,8 +68,9 @@ def islands_from(model, seeds, limit: int | None = None) -> list[set[int]]:
                     nxt += fronts[other]
                     _merge(owner, pieces, fronts, other, k)
         fronts[k] = nxt
-    if searched >= limit:
-        return []
+    if searched >= limit:  # the tissue not found: the pieces found whole are apart from it
+        whole = [k for k, p in enumerate(pieces) if p and not fronts[k] and len(p) < limit]
+        return [pieces[k] for k in whole if _free(model, pieces[k])]
     growing = [k for k, f in enumerate(fronts) if f]
     finished = [k for k, p in enumerate(pieces) if p and k not in growing]
     if not pieces:  # no live seed: nothing was cut free
