@@ -1494,9 +1494,8 @@ def test_a_stroke_crossing_a_wound_near_its_end_at_a_shallow_angle_opens_the_run
     degrees off its line, 3 or 2 mm before its end. Past the wound its curve runs within the
     edge clearance of the wound's border for about a spacing: no sample there is clear of it,
     and at ``BESIDE_RUN`` = 1 spacing no run was long enough for its strip to be cut off, so
-    that run stayed uncut (0.78 and 0.86 covered). At half a spacing the strip goes, the blade's
-    tip beside it cuts as it goes (``piece._tip_beside``), and the stroke opens >= 0.95 of its
-    path with no cut event refused."""
+    that run stayed uncut (0.78 and 0.86 covered). At half a spacing the strip goes, and the
+    stroke opens >= 0.95 of its path with no cut event refused."""
     surface = flat_grid(0.05, 0.002)
     sim = supported_sim(surface, 1.0 / 60.0)
     one_valid_incision(sim, surface, strokes.line([-0.012, 0.0], 0.0, 0.024), 60.0, 0.001, 0.002, 0.02, 0.04)

@@ -11,8 +11,7 @@ piece, tries again) while
 * the blade's travel has not yet kept or undone a start joined to an earlier wound;
 * the piece is shorter than ``MIN_ADVANCE`` spacings;
 * a slit from its start holds no lip pair yet (it has width once it does);
-* its tip would lie in an opening (the blade is not yet through it) or too near one's border,
-  unless that border runs beside the curve (``beside``: the blade cuts the strip off as it goes);
+* its tip would lie in an opening (the blade is not yet through it);
 * a run past an opening is too short for a lip pair (``slit_band.samples_to_cut``);
 
 an incision's last cut (``final``) waits for none of these but the first two. A piece all over
@@ -85,7 +84,7 @@ def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: floa
     edge = edge_clearance(inc)
     over, clear = tissue_and_edge(model, points, near, edge, inc.slit_nodes)
     on_tissue = over & clear
-    if tool is not None and not on_tissue[-1] and not _tip_beside(model, inc, u, over, on_tissue, near, edge):
+    if tool is not None and not on_tissue[-1]:
         return None  # the tip would lie in an opening: wait till the blade is through it
     crossed = necks(u, over, clear, NECK_REACH * edge)
     on_tissue |= crossed
@@ -101,15 +100,6 @@ def piece_to_cut(model, nodes_near, inc: Incision, tool: Tool | None, upto: floa
             inc.cut_point = points[stop].copy()
         return None
     return Piece(u, points, on_tissue, beside, near, crossed)
-
-
-def _tip_beside(model, inc: Incision, u: np.ndarray, over: np.ndarray, on_tissue: np.ndarray,
-                near: np.ndarray, edge: float) -> bool:
-    """Whether the tip of a piece (samples at ``u`` (k,) [m], ``over`` the tissue, ``on_tissue``
-    clear of its borders) lies in the tissue beside an opening, a border across the curve
-    within ``edge`` [m] (``beside.beside_opening``): the blade then runs along that opening,
-    cutting off the strip between them as it goes, instead of meeting it head on."""
-    return bool(over[-1]) and bool(beside_opening(model, inc, u, on_tissue, near, edge).mask[-1])
 
 
 def goes_back(model, inc: Incision) -> bool:
