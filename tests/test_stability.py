@@ -430,8 +430,9 @@ def _linked_pair_closing(integrator: str, strain: float) -> np.ndarray:
 def test_xpbd_links_close_their_pairs_as_much_as_the_springs_let_them(strain):
     """XPBD far above the springs' explicit limit (h^2 k w ~ 26): its links close their pairs
     within 25 % of implicit Euler's closing (the springs' equilibrium). A link softened less
-    than the springs that hold it (F / r << k: its own compliance only) closed its pairs 2.4
-    (strain 0.9) to 47 (0.05) times too far, and on the small triangles a cut makes crushed
+    than the springs that hold it (F / r << k: its own compliance only) closed its pairs too far,
+    off by 2.4 (strain 0.9) to 47 (0.05) times the reference's closing, and on the small
+    triangles a cut makes crushed
     them flat (fuzz case 1773829024, stroke 3: a triangle of 27 deg at rest at 0.01 deg)."""
     xpbd, reference = _linked_pair_closing("xpbd", strain), _linked_pair_closing("implicit_euler", strain)
     assert reference.min() > 0
