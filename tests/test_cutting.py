@@ -1509,6 +1509,33 @@ def test_a_stroke_crossing_a_wound_near_its_end_at_a_shallow_angle_opens_the_run
     assert_sound_rest_shape(sim.model, sim.cutter.live_new_triangles())
 
 
+def test_xpbds_links_leave_the_small_triangles_of_a_crossing_cut_uncrushed():
+    """Fuzz case 1773829024: XPBD at one 1 ms substep, residual links, gravity and the
+    foundation on a 2 mm grid; a line, a zigzag across it and an arc across both. The arc's
+    cut makes small triangles (rest edges down to 0.25 spacings) whose light nodes carry the
+    links of the springs it crossed. While a link was softened less than the springs holding
+    its nodes (``kernels.residual.link_constraints``) it pulled its pair from 1.29 to 0.70 mm
+    and laid a triangle of 27 deg at rest flat (0.01 deg). Now every stroke leaves its
+    triangles at least 10 deg as the skin lies, and the cut's guarantees hold at rest."""
+    surface = flat_grid(0.03792329682448638, 0.0019671057392551938)
+    sim = supported_sim(surface, 0.0, integrator="xpbd")
+    cuts = [(strokes.line([0.0049899074769061, -0.0017237862192948372], 3.3752359622888353, 0.01617575447815047),
+             (73.82551440849952, 0.0015309562212694004, 0.0011199448045208658, 0.005600496290715482,
+              0.04841422389179258)),
+            (strokes.zigzag([0.004982398411882598, -0.009363503623281158], -3.875983890383182, 0.018039926726972993,
+                            0.0022536564870621503, 0.02046093073744712),
+             (38.89453757808428, 0.0004723125812956441, 0.0016257833223895487, 0.008636846108428934,
+              0.04940160080798367)),
+            (strokes.arc([0.002869057962869493, -0.007043001744858142], -3.651534350706141, 0.01383793268377947,
+                         -0.02165012982078109),
+             (65.72486066234868, 0.0005928674396894452, 0.002497865643165087, 0.012401524841293234,
+              0.04260491930352786))]
+    for path, tool in cuts:
+        result = one_valid_incision(sim, surface, path, *tool)
+        assert result.slivers == 0, result.min_new_angle_deg
+    assert_sound_rest_shape(sim.model, sim.cutter.live_new_triangles())
+
+
 @pytest.mark.parametrize("offset_mm, turn_deg", [(0.4, 0.0), (0.8, 4.0)])
 def test_a_stroke_beside_an_earlier_wound_cuts_off_the_strip_between_them(offset_mm, turn_deg):
     """A second 16 mm stroke (r 1 mm, 60 degrees) drawn beside a first one, 0.4 mm off its line,
