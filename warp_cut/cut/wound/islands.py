@@ -68,14 +68,10 @@ def islands_from(model, seeds, limit: int | None = None) -> list[set[int]]:
                     nxt += fronts[other]
                     _merge(owner, pieces, fronts, other, k)
         fronts[k] = nxt
-    if searched >= limit:  # the tissue not found: the pieces found whole are apart from it
-        whole = [k for k, p in enumerate(pieces) if p and not fronts[k] and len(p) < limit]
-        return [pieces[k] for k in whole if _free(model, pieces[k])]
-    growing = [k for k, f in enumerate(fronts) if f]
-    finished = [k for k, p in enumerate(pieces) if p and k not in growing]
-    if not pieces:  # no live seed: nothing was cut free
-        return []
-    if not growing:  # every piece finished: the largest is the tissue
+    finished = [k for k, p in enumerate(pieces) if p and not fronts[k]]
+    if searched >= limit:  # the tissue not found: the pieces found whole under the limit are apart from it
+        finished = [k for k in finished if len(pieces[k]) < limit]
+    elif pieces and not any(fronts):  # every piece finished: the largest is the tissue
         largest = max(range(len(pieces)), key=lambda k: len(pieces[k]))
         finished = [k for k in finished if k != largest]
     return [pieces[k] for k in finished if _free(model, pieces[k])]
